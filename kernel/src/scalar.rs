@@ -1,0 +1,417 @@
+//! The numeric core: one trait, two implementations (`f32` and [`Fx`]).
+//!
+//! Every arithmetic operation the kernel performs goes through [`Scalar`], so
+//! the same source is instantiated for IEEE `f32` and for fixed point. The
+//! operations are total: they never panic, never wrap silently (fixed point
+//! saturates), and the kernel checks [`Scalar::is_finite`] wherever an `f32`
+//! NaN or infinity could appear.
+//!
+//! The methods are deliberately named `plus`, `minus`, `times` rather than
+//! using `core::ops`: the `fixed` crate's operators panic on overflow in debug
+//! builds and wrap in release builds, and neither is acceptable here.
+//!
+//! # Fixed-point format: [`Fx`] = `I8F24`
+//!
+//! A signed 32-bit word with 8 integer and 24 fractional bits:
+//! range [-128, 128), resolution 2^-24 = 5.96e-8.
+//!
+//! *Range* (ROBOT.md section 1): the widest joint range is J6, -6.283..6.283
+//! rad; before homing the observer's angle is relative to the power-on reading
+//! and a homing seek can travel the whole range, so joint angles stay within
+//! about +-13 rad. Velocities are at most 6 rad/s (runaway threshold 7.5
+//! rad/s), gains at most Kp = 5 /s, observer gains <= 1. Everything the kernel
+//! stores fits with an order of magnitude of headroom; intermediate products
+//! that could exceed the range (Kp times a huge error) saturate and are then
+//! caught by the velocity clamp and the plausibility checks. Quantities that
+//! do not fit (step rates up to ~110 000 steps/s, encoder counts) never live
+//! in `Fx`: they pass through [`Scalar::from_counts`] and
+//! [`Scalar::to_rate`], which use a 64-bit intermediate and a
+//! high-precision scale ([`Scalar::Wide`]).
+//!
+//! *Resolution*: one encoder count is 2 pi / 4096 / gear, at least 7.7e-5 rad
+//! of joint angle (J2, gear 20), i.e. ~1300 LSB. The observer integrates
+//! `v * dt` every millisecond: a velocity of 1e-4 rad/s still moves the
+//! estimate by 1.7 LSB per tick, so slow motion is not lost to truncation
+//! (I16F16 would lose everything under 0.015 rad/s). Command text has 3 or 4
+//! decimals (1e-3 / 1e-4 rad), far above the resolution.
+//!
+//! # Branch-free core
+//! `min`, `max`, `select` and the saturating operations compile to
+//! conditional-select instructions on both the host and the Cortex-M7; the
+//! per-axis numeric code uses them instead of `if` so its execution time does
+//! not depend on the data.
+
+use fixed::types::I8F24;
+
+/// The fixed-point variant's number type. See the module docs for the choice.
+pub type Fx = I8F24;
+
+/// The scalar operations the kernel needs. Implemented for `f32` and [`Fx`].
+pub trait Scalar: Copy + PartialEq + PartialOrd + core::fmt::Debug + Send + Sync + 'static {
+    /// Additive identity.
+    const ZERO: Self;
+    /// Multiplicative identity.
+    const ONE: Self;
+    /// A high-precision multiplier used to convert between this type and
+    /// integers (encoder counts, step rates) that may not fit in `Self`.
+    type Wide: Copy + PartialEq + core::fmt::Debug + Send + Sync + 'static;
+
+    /// Converts a configuration constant. Saturates; NaN becomes zero.
+    /// Used at initialisation, never in the tick.
+    fn from_f32(x: f32) -> Self;
+    /// Lossy conversion for reporting and plotting.
+    fn to_f32(self) -> f32;
+    /// A configuration constant as a [`Self::Wide`] scale. Initialisation only.
+    fn wide_from_f64(x: f64) -> Self::Wide;
+
+    /// Saturating addition.
+    fn plus(self, rhs: Self) -> Self;
+    /// Saturating subtraction.
+    fn minus(self, rhs: Self) -> Self;
+    /// Saturating multiplication.
+    fn times(self, rhs: Self) -> Self;
+    /// Saturating multiplication by an integer.
+    fn times_int(self, n: i32) -> Self;
+    /// Saturating negation.
+    fn neg(self) -> Self;
+    /// Saturating absolute value.
+    fn abs(self) -> Self;
+    /// Minimum. For `f32` a NaN operand is ignored (IEEE minNum): callers
+    /// that must reject NaN check [`Self::is_finite`] first.
+    fn min(self, rhs: Self) -> Self;
+    /// Maximum; see [`Self::min`] about NaN.
+    fn max(self, rhs: Self) -> Self;
+    /// False for NaN and infinities; always true for fixed point.
+    fn is_finite(self) -> bool;
+
+    /// `n * k` where `n` is an integer that may not fit in `Self` (encoder
+    /// counts). Saturating.
+    fn from_counts(n: i32, k: Self::Wide) -> Self;
+    /// `self * k` rounded toward zero to an integer (step rates). Saturating;
+    /// NaN gives 0.
+    fn to_rate(self, k: Self::Wide) -> i32;
+    /// `round(self * scale)` with ties away from zero, saturating to `i64`;
+    /// NaN gives 0. Used to print exact decimals (scale = 10^decimals).
+    fn to_scaled_int(self, scale: i64) -> i64;
+    /// Parses plain decimal text (`-?digits(.digits)?`) with correct rounding
+    /// to the nearest representable value, without going through another
+    /// floating type. The caller validates the syntax; anything else that
+    /// `core` would accept (exponents, `inf`, `nan`) must already be
+    /// rejected. Returns `None` if the text does not parse or the value does
+    /// not fit.
+    fn parse_decimal(text: &str) -> Option<Self>;
+
+    /// `if c { a } else { b }`, written so the compiler can use a
+    /// conditional select.
+    #[inline(always)]
+    fn select(c: bool, a: Self, b: Self) -> Self {
+        if c {
+            a
+        } else {
+            b
+        }
+    }
+
+    /// Saturates `self` to `[-limit, limit]` (`limit >= 0`). A non-finite
+    /// input gives zero (never `limit`: `f32::min` would turn NaN into the
+    /// limit, and `clamp` would pass NaN through).
+    #[inline(always)]
+    fn saturate(self, limit: Self) -> Self {
+        let s = self.min(limit).max(limit.neg());
+        Self::select(self.is_finite(), s, Self::ZERO)
+    }
+
+    /// Clamps `self` into the closed interval spanned by `a` and `b`, in
+    /// either order.
+    #[inline(always)]
+    fn clamp_between(self, a: Self, b: Self) -> Self {
+        let lo = a.min(b);
+        let hi = a.max(b);
+        self.max(lo).min(hi)
+    }
+}
+
+impl Scalar for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    type Wide = f32;
+
+    fn from_f32(x: f32) -> Self {
+        if x.is_nan() {
+            0.0
+        } else {
+            x
+        }
+    }
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    fn wide_from_f64(x: f64) -> f32 {
+        x as f32
+    }
+    #[inline(always)]
+    fn plus(self, rhs: Self) -> Self {
+        self + rhs
+    }
+    #[inline(always)]
+    fn minus(self, rhs: Self) -> Self {
+        self - rhs
+    }
+    #[inline(always)]
+    fn times(self, rhs: Self) -> Self {
+        self * rhs
+    }
+    #[inline(always)]
+    fn times_int(self, n: i32) -> Self {
+        self * n as f32
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        -self
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        // Clearing the sign bit: exact, branch-free, and NaN stays NaN.
+        f32::from_bits(self.to_bits() & 0x7fff_ffff)
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        f32::min(self, rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        f32::max(self, rhs)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> bool {
+        f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn from_counts(n: i32, k: f32) -> Self {
+        // Counts stay far below 2^24 in this robot (|n| < 2^19), so the
+        // conversion is exact and only the product rounds.
+        n as f32 * k
+    }
+    #[inline(always)]
+    fn to_rate(self, k: f32) -> i32 {
+        // `as` saturates and maps NaN to 0.
+        (self * k) as i32
+    }
+    fn to_scaled_int(self, scale: i64) -> i64 {
+        // f64 holds every f32 exactly and the product of an f32 with a small
+        // power of ten is exact in f64 to far more digits than printed.
+        let x = f64::from(self) * scale as f64;
+        // Round half away from zero without `f64::round` (std only).
+        let r = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
+        r as i64
+    }
+    fn parse_decimal(text: &str) -> Option<Self> {
+        // core's float parser is correctly rounded (Eisel-Lemire with a
+        // big-decimal fallback), straight from the decimal text to f32.
+        let v: f32 = text.parse().ok()?;
+        if v.is_finite() {
+            Some(v)
+        } else {
+            None
+        }
+    }
+}
+
+/// Fractional bits of [`Fx`].
+const FX_FRAC: u32 = 24;
+/// Extra fractional bits of [`Fx`]'s wide scale (Q(24+24) in an `i64`).
+const WIDE_EXTRA: u32 = 24;
+
+/// The wide scale of [`Fx`]: a signed value with 48 fractional bits (range
+/// +-32768, checked for the step-rate scale by the configuration), so a
+/// per-count scale such as 2 pi / 4096 / 18.0952 (8.5e-5) keeps ~7 significant
+/// decimal digits more than `Fx` would give it (accumulated over 10^5 counts
+/// the error stays under 1e-9 rad).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FxWide(pub i64);
+
+impl Scalar for Fx {
+    const ZERO: Self = Fx::ZERO;
+    const ONE: Self = Fx::ONE;
+    type Wide = FxWide;
+
+    fn from_f32(x: f32) -> Self {
+        if x.is_nan() {
+            Fx::ZERO
+        } else {
+            Fx::saturating_from_num(x)
+        }
+    }
+    fn to_f32(self) -> f32 {
+        self.to_num::<f32>()
+    }
+    fn wide_from_f64(x: f64) -> FxWide {
+        // Round to nearest; saturate (the `as` cast saturates and maps NaN to 0).
+        let scaled = x * (1u64 << (FX_FRAC + WIDE_EXTRA)) as f64;
+        let r = if scaled >= 0.0 { scaled + 0.5 } else { scaled - 0.5 };
+        FxWide(r as i64)
+    }
+    #[inline(always)]
+    fn plus(self, rhs: Self) -> Self {
+        self.saturating_add(rhs)
+    }
+    #[inline(always)]
+    fn minus(self, rhs: Self) -> Self {
+        self.saturating_sub(rhs)
+    }
+    #[inline(always)]
+    fn times(self, rhs: Self) -> Self {
+        self.saturating_mul(rhs)
+    }
+    #[inline(always)]
+    fn times_int(self, n: i32) -> Self {
+        self.saturating_mul_int(n)
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        self.saturating_neg()
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        self.saturating_abs()
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        Ord::min(self, rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        Ord::max(self, rhs)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn from_counts(n: i32, k: FxWide) -> Self {
+        // |n| < 2^31 and |k| < 2^40 for any sane scale would overflow i64 only
+        // for absurd inputs, so use i128 to be total; the shift floors.
+        let p = i128::from(n).saturating_mul(i128::from(k.0)) >> WIDE_EXTRA;
+        let bits = p.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i32;
+        Fx::from_bits(bits)
+    }
+    #[inline(always)]
+    fn to_rate(self, k: FxWide) -> i32 {
+        let p = i128::from(self.to_bits()).saturating_mul(i128::from(k.0));
+        // bits * k = v * 2^24 * k * 2^48: drop 72 fractional bits, truncating
+        // toward zero like the f32 variant's `as i32`.
+        let shift = FX_FRAC + FX_FRAC + WIDE_EXTRA;
+        let mag = p.unsigned_abs() >> shift;
+        let mag = mag.min(i32::MAX as u128) as i32;
+        if p < 0 {
+            mag.saturating_neg()
+        } else {
+            mag
+        }
+    }
+    fn to_scaled_int(self, scale: i64) -> i64 {
+        let p = i128::from(self.to_bits()).saturating_mul(i128::from(scale));
+        let half = 1i128 << (FX_FRAC - 1);
+        let mag = (p.unsigned_abs().saturating_add(half as u128)) >> FX_FRAC;
+        let mag = mag.min(i64::MAX as u128) as i64;
+        if p < 0 {
+            mag.saturating_neg()
+        } else {
+            mag
+        }
+    }
+    fn parse_decimal(text: &str) -> Option<Self> {
+        // `fixed`'s parser converts decimal text straight to the nearest
+        // representable value (ties to even) and reports overflow.
+        text.parse::<Fx>().ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn saturate_maps_non_finite_to_zero() {
+        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -f32::NAN] {
+            assert_eq!(x.saturate(3.0), 0.0, "{x}");
+        }
+        assert_eq!(10.0f32.saturate(3.0), 3.0);
+        assert_eq!((-10.0f32).saturate(3.0), -3.0);
+        assert_eq!(1.5f32.saturate(3.0), 1.5);
+        let l = Fx::from_num(3);
+        assert_eq!(Fx::MAX.saturate(l), l);
+        assert_eq!(Fx::MIN.saturate(l), -l);
+    }
+
+    #[test]
+    fn fixed_ops_saturate_instead_of_panicking() {
+        assert_eq!(Fx::MAX.plus(Fx::ONE), Fx::MAX);
+        assert_eq!(Fx::MIN.minus(Fx::ONE), Fx::MIN);
+        assert_eq!(Scalar::neg(Fx::MIN), Fx::MAX);
+        // `Fx` has an inherent, panicking `abs`: generic kernel code only sees
+        // the trait's saturating one.
+        assert_eq!(Scalar::abs(Fx::MIN), Fx::MAX);
+        assert_eq!(Fx::MAX.times(Fx::MAX), Fx::MAX);
+        assert_eq!(Fx::MAX.times_int(1000), Fx::MAX);
+        assert_eq!(<Fx as Scalar>::ONE, Fx::ONE);
+    }
+
+    #[test]
+    fn counts_conversion_is_precise_for_both() {
+        let k = core::f64::consts::TAU / 4096.0 / 18.0952;
+        let n = 200_000;
+        let exact = n as f64 * k;
+        let fx = Fx::from_counts(n, Fx::wide_from_f64(k));
+        assert!((fx.to_num::<f64>() - exact).abs() < 1e-7, "{fx} vs {exact}");
+        let f = f32::from_counts(n, f32::wide_from_f64(k));
+        assert!((f64::from(f) - exact).abs() < 1e-5);
+        assert_eq!(Fx::from_counts(i32::MAX, FxWide(i64::MAX)), Fx::MAX);
+        assert_eq!(Fx::from_counts(i32::MIN, FxWide(i64::MAX)), Fx::MIN);
+    }
+
+    #[test]
+    fn rate_conversion_truncates_toward_zero_and_saturates() {
+        let spr = 18431.62;
+        let v = Fx::from_num(6);
+        let r = v.to_rate(Fx::wide_from_f64(spr));
+        assert_eq!(r, 110_589);
+        assert_eq!((-v).to_rate(Fx::wide_from_f64(spr)), -110_589);
+        assert_eq!(6.0f32.to_rate(spr as f32), 110_589);
+        assert_eq!(f32::NAN.to_rate(spr as f32), 0);
+        assert_eq!(Fx::MAX.to_rate(Fx::wide_from_f64(30_000.0)), 3_839_999);
+        assert_eq!(Fx::MIN.to_rate(Fx::wide_from_f64(30_000.0)), -3_840_000);
+        // The largest product of the two ranges (128 x 32768) still fits in i32.
+        assert_eq!(Fx::MAX.to_rate(FxWide(i64::MAX)), 4_194_303);
+        assert_eq!(Fx::from_num(3).to_rate(Fx::wide_from_f64(-1000.5)), -3001);
+    }
+
+    #[test]
+    fn scaled_int_rounds_half_away_from_zero() {
+        assert_eq!(Fx::from_num(0.0005).to_scaled_int(1000), 1);
+        assert_eq!(Fx::from_num(-1.2346).to_scaled_int(10_000), -12346);
+        assert_eq!((-1.2346f32).to_scaled_int(10_000), -12346);
+        assert_eq!(f32::NAN.to_scaled_int(1000), 0);
+        assert_eq!(f32::INFINITY.to_scaled_int(1000), i64::MAX);
+    }
+
+    #[test]
+    fn parse_decimal_is_correctly_rounded() {
+        assert_eq!(f32::parse_decimal("0.123"), Some(0.123f32));
+        assert_eq!(f32::parse_decimal("-2.7191"), Some(-2.7191f32));
+        let fx = Fx::parse_decimal("0.001").unwrap();
+        let ideal = 0.001 * (1u64 << 24) as f64; // 16777.216
+        assert_eq!(fx.to_bits(), ideal.round() as i32);
+        assert_eq!(Fx::parse_decimal("-0.000"), Some(Fx::ZERO));
+        assert_eq!(Fx::parse_decimal("200.000"), None);
+        assert_eq!(f32::parse_decimal("1e39"), None);
+    }
+
+    #[test]
+    fn clamp_between_accepts_either_order() {
+        assert_eq!(5.0f32.clamp_between(3.0, 1.0), 3.0);
+        assert_eq!(0.0f32.clamp_between(3.0, 1.0), 1.0);
+        assert_eq!(2.0f32.clamp_between(1.0, 3.0), 2.0);
+    }
+}

@@ -1,0 +1,368 @@
+//! The kernel's public data: what goes into a tick and what comes out.
+
+use crate::config::AXES;
+use crate::homing::Phase;
+
+/// One encoder reading as delivered by the HAL.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EncoderSample {
+    /// A valid 12-bit count (0..=4095). Larger values are treated as lost.
+    Count(u16),
+    /// No valid reading this tick (no signal, duty out of range, ...).
+    Lost,
+}
+
+/// A fault detected by the hardware layer and passed in with the sensors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HardwareFault {
+    /// The previous tick was still running when this one became due.
+    TickOverrun,
+    /// A stepper driver reported a fault (axis index 0..=5).
+    Driver {
+        /// Axis index.
+        axis: u8,
+    },
+    /// Start-up self-test failed (code defined by the firmware).
+    SelfTest(u8),
+}
+
+/// Everything sensed in one tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sense {
+    /// Encoder readings J1..J6.
+    pub encoders: [EncoderSample; AXES],
+    /// Debounced limit switches, bit `i` = J(i+1) pressed. Bits 6, 7 ignored.
+    pub limits: u8,
+    /// A hardware fault, if one was detected since the last tick.
+    pub hardware_fault: Option<HardwareFault>,
+}
+
+/// A motion target in joint space (rad, rad/s), from the host.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionTarget<S> {
+    /// Target joint positions J1..J6.
+    pub position: [S; AXES],
+    /// Host velocities J1..J6: validated (finite, within the joint's limit)
+    /// but not used as feed-forward; see [`crate::interp`].
+    pub velocity: [S; AXES],
+}
+
+/// Proof that trusted code authorised clearing a latched stop or fault.
+///
+/// It can only be made by [`Authority::enable`], and the only [`Authority`]
+/// is the one returned with the kernel by [`crate::Kernel::new`]. Code that
+/// only parses host input (the protocol crate) never holds it, so it cannot
+/// clear a fault on its own; the composition root (firmware main loop or
+/// simulator) decides to turn a host `<ENABLE>` into a capability.
+#[derive(Debug)]
+pub struct EnableCapability {
+    _private: (),
+}
+
+/// The right to mint [`EnableCapability`] tokens. Not `Clone`, not `Copy`.
+#[derive(Debug)]
+pub struct Authority {
+    _private: (),
+}
+
+impl Authority {
+    pub(crate) const fn new() -> Self {
+        Authority { _private: () }
+    }
+    /// Mints one capability to clear a latched stop or fault.
+    pub fn enable(&self) -> EnableCapability {
+        EnableCapability { _private: () }
+    }
+}
+
+/// A request to the kernel. At most one is handled per tick.
+#[derive(Debug)]
+pub enum Request<S> {
+    /// New motion target.
+    Motion(MotionTarget<S>),
+    /// Home every axis in the seed's order.
+    Home,
+    /// Home one joint (index 0..=5 for J1..J6); allowed only when the
+    /// joints it depends on are homed.
+    HomeJoint(u8),
+    /// Clear a latched soft E-stop or fault.
+    Enable(EnableCapability),
+}
+
+/// The kind of a request, for reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RequestKind {
+    /// [`Request::Motion`].
+    Motion,
+    /// [`Request::Home`].
+    Home,
+    /// [`Request::HomeJoint`].
+    HomeJoint(u8),
+    /// [`Request::Enable`].
+    Enable,
+}
+
+impl<S> Request<S> {
+    /// The kind of this request.
+    pub fn kind(&self) -> RequestKind {
+        match self {
+            Request::Motion(_) => RequestKind::Motion,
+            Request::Home => RequestKind::Home,
+            Request::HomeJoint(j) => RequestKind::HomeJoint(*j),
+            Request::Enable(_) => RequestKind::Enable,
+        }
+    }
+}
+
+/// Supervisor state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    /// Waiting for a first valid reading of every encoder. Outputs zero.
+    Boot,
+    /// Not (fully) homed. Outputs zero; motion refused.
+    Unhomed,
+    /// Homing in progress.
+    Homing,
+    /// Homed and following targets.
+    Operational,
+    /// Soft E-stop: decelerating every axis together to zero.
+    Stopping,
+    /// Soft E-stop: stopped, latched until enable or home.
+    SoftEstop,
+    /// Fault: outputs zero, latched until enable.
+    Fault,
+}
+
+/// Homing status as the ROS 2 driver understands it (`H0`..`H3`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HomingStatus {
+    /// Never requested (or a per-joint run left some joints unhomed).
+    NotRequested = 0,
+    /// In progress.
+    InProgress = 1,
+    /// Every joint homed.
+    Complete = 2,
+    /// The last homing run failed.
+    Failed = 3,
+}
+
+/// Why the kernel faulted. The first reason is latched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FaultReason {
+    /// The encoder of `axis` gave no valid reading.
+    EncoderLost {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The encoder of `axis` moved more than is physically possible in a tick.
+    EncoderJump {
+        /// Axis index.
+        axis: u8,
+        /// The step seen, in counts.
+        delta: i32,
+    },
+    /// The encoder of `axis` gave no valid reading within the boot timeout.
+    EncoderNotReady {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The measured speed of `axis` exceeded its runaway threshold.
+    Runaway {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The limit switch of `axis` was pressed outside homing.
+    LimitSwitch {
+        /// Axis index.
+        axis: u8,
+    },
+    /// The estimated position of homed `axis` left its limits plus margin.
+    PositionLimit {
+        /// Axis index.
+        axis: u8,
+    },
+    /// A non-finite or absurd value in the state or output of `axis`.
+    Numeric {
+        /// Axis index.
+        axis: u8,
+    },
+    /// Homing of `axis` did not finish `phase` in time.
+    HomingTimeout {
+        /// Axis index.
+        axis: u8,
+        /// Phase that timed out.
+        phase: Phase,
+    },
+    /// Reported by the hardware layer.
+    Hardware(HardwareFault),
+}
+
+/// A latched fault: the first reason and the tick it happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fault {
+    /// The first reason.
+    pub reason: FaultReason,
+    /// Kernel tick count when it was latched.
+    pub tick: u32,
+}
+
+/// Why a request was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reject {
+    /// Encoders not yet initialised.
+    Booting,
+    /// Motion while not homed.
+    NotHomed,
+    /// Motion or home while homing.
+    Homing,
+    /// A soft E-stop or fault is latched: enable first.
+    Latched,
+    /// The soft E-stop ramp is still running.
+    Stopping,
+    /// A target position outside the joint's limits.
+    PositionOutOfLimits {
+        /// Axis index.
+        axis: u8,
+    },
+    /// A velocity above the joint's limit.
+    VelocityTooHigh {
+        /// Axis index.
+        axis: u8,
+    },
+    /// A NaN or infinite value.
+    NonFinite {
+        /// Axis index.
+        axis: u8,
+    },
+    /// Joint index out of range.
+    NoSuchJoint,
+    /// Per-joint homing while a joint it depends on is not homed.
+    DependencyNotHomed {
+        /// Bitmask of the joints that must be homed first.
+        needs: u8,
+    },
+    /// Enable while nothing is latched.
+    NothingToClear,
+    /// Enable while a fault condition is still present.
+    CauseActive(FaultReason),
+}
+
+/// Something the host should be told about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// Every encoder read once; now unhomed.
+    Ready,
+    /// A request was refused.
+    Rejected {
+        /// What was refused.
+        request: RequestKind,
+        /// Why.
+        reason: Reject,
+    },
+    /// Homing started for the joints in `mask`.
+    HomingStarted {
+        /// Joints being homed.
+        mask: u8,
+    },
+    /// Homing finished for the joints in `mask`.
+    HomingDone {
+        /// Joints homed.
+        mask: u8,
+    },
+    /// A fault was latched (homing failures included).
+    Fault(FaultReason),
+    /// The command timeout expired; the soft E-stop ramp started.
+    SoftEstop {
+        /// Time since the last accepted motion command (ms).
+        since_command_ms: u32,
+    },
+    /// The soft E-stop ramp reached zero.
+    Stopped,
+    /// A latched stop or fault was cleared; the new state.
+    Enabled(State),
+}
+
+/// Maximum events per tick: one per source (request, sensing/supervision
+/// fault, homing, timeout or ramp), so the list cannot overflow; overflow is
+/// still counted rather than lost silently.
+pub const MAX_EVENTS: usize = 4;
+
+/// The events of one tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Events {
+    list: [Option<Event>; MAX_EVENTS],
+    len: u8,
+    dropped: u8,
+}
+
+impl Events {
+    pub(crate) const fn new() -> Self {
+        Events { list: [None; MAX_EVENTS], len: 0, dropped: 0 }
+    }
+    pub(crate) fn push(&mut self, e: Event) {
+        match self.list.get_mut(usize::from(self.len)) {
+            Some(slot) => {
+                *slot = Some(e);
+                self.len = self.len.saturating_add(1);
+            }
+            None => self.dropped = self.dropped.saturating_add(1),
+        }
+    }
+    /// The events, in the order they happened.
+    pub fn iter(&self) -> impl Iterator<Item = &Event> + '_ {
+        self.list.iter().flatten()
+    }
+    /// Events that did not fit (never expected; reported if it happens).
+    pub fn dropped(&self) -> u8 {
+        self.dropped
+    }
+    /// True if there are no events.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// What to apply to the motors this tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Actuation<S> {
+    /// Joint velocity commands (rad/s).
+    pub velocity: [S; AXES],
+    /// Signed step rates (steps/s), motor direction applied.
+    pub step_rate: [i32; AXES],
+}
+
+/// What to report to the host.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Status<S> {
+    /// Supervisor state.
+    pub state: State,
+    /// Homing status for the `H<d>` token.
+    pub homing: HomingStatus,
+    /// The latched fault, if any.
+    pub fault: Option<Fault>,
+    /// Estimated joint positions (rad).
+    pub position: [S; AXES],
+    /// Estimated joint velocities (rad/s).
+    pub velocity: [S; AXES],
+    /// Current set-points (rad).
+    pub setpoint: [S; AXES],
+    /// Limit switches pressed (bit per joint).
+    pub limits: u8,
+    /// Joints homed (bit per joint).
+    pub homed: u8,
+    /// The command timeout is armed.
+    pub timeout_armed: bool,
+    /// Ticks since the kernel started.
+    pub tick: u32,
+}
+
+/// The result of one tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickOutput<S> {
+    /// Outputs, all checked before any is returned.
+    pub act: Actuation<S>,
+    /// Status to report.
+    pub status: Status<S>,
+    /// Events to report.
+    pub events: Events,
+}
