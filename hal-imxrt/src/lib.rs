@@ -1,0 +1,44 @@
+#![no_std]
+#![forbid(unsafe_op_in_unsafe_fn)]
+//! Thin register-level HAL for the PAROL6 controller on a Teensy 4.1
+//! (i.MXRT1062, Cortex-M7 at 600 MHz).
+//!
+//! # Split
+//!
+//! * [`pure`] — all arithmetic and tables, no registers, no dependencies,
+//!   host-tested with `cargo test -p hal-imxrt`:
+//!   [`pure::encoder`] (MT6816 PWM decode + continuity tracker),
+//!   [`pure::clock`] (PIT load, QuadTimer prescaler, DIR settle, watchdog),
+//!   [`pure::uart`] (LPUART OSR/SBR search), [`pure::step`] (step rate ->
+//!   FlexPWM period/prescaler), [`pure::pins`] (Teensy 4.1 pin database and
+//!   the compile-time-checked pin map), [`pure::debounce`] (limit switches).
+//! * `periph` — compiled **only when `target_os = "none"`** (i.e. for
+//!   `thumbv7em-none-eabihf`); no feature flag, so a host build can never
+//!   pull in register code by accident. Thin drivers that own their
+//!   `imxrt-ral` instance and touch registers only through `imxrt-ral`'s
+//!   `read_reg!`/`modify_reg!`/`write_reg!`; the DWT cycle counter comes from
+//!   the `cortex-m` crate. Every number they program comes from [`pure`].
+//!   Build: `cargo build -p hal-imxrt --target thumbv7em-none-eabihf`.
+//!
+//! # What this crate does not do
+//!
+//! It does not set up the ARM PLL (600 MHz), AHB/IPG dividers (IPG 150 MHz)
+//! or the boot image; the firmware's boot code does that and [`pure::clock`]
+//! states the assumed tree. `periph::clocks` only selects PERCLK and
+//! UART_CLK_ROOT (both 24 MHz from the crystal) and opens clock gates.
+//!
+//! # Corrections to the brief / C++ design found while writing this crate
+//!
+//! * QuadTimer gated count is `CTRL[CM] = 0b011` ("count rising edges of
+//!   primary source while secondary input high", imxrt-ral field docs from
+//!   NXP's SVD). `CM = 6` is "edge of secondary source triggers primary count
+//!   until compare", which does not gate. `periph` uses 3.
+//! * Serial1 on pins 0/1 is **LPUART6** (pads GPIO_AD_B0_03/02, ALT2), not
+//!   LPUART1 (which is on pins 24/25, here limit switches).
+//! * A duty window shorter than (or not a whole number of) frames has a phase
+//!   error of up to ~+-122 counts; see [`pure::encoder`].
+
+pub mod pure;
+
+#[cfg(target_os = "none")]
+pub mod periph;

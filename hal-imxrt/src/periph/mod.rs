@@ -1,0 +1,1 @@
+//! Register drivers (target only). Filled below.

@@ -1,0 +1,9 @@
+//! Everything that can be computed without touching a register. No
+//! dependencies, no floats, no panics outside `const` evaluation and tests.
+
+pub mod clock;
+pub mod debounce;
+pub mod encoder;
+pub mod pins;
+pub mod step;
+pub mod uart;

@@ -1,0 +1,468 @@
+//! Teensy 4.1 pin database and the PAROL6 pin map, checked at compile time.
+//!
+//! # Default map and the rewiring it needs
+//!
+//! | axis | STEP (C++) | STEP (here) | timer (here)       | DIR | encoder | TMR ch  | limit |
+//! |------|-----------:|------------:|--------------------|----:|--------:|---------|------:|
+//! | J1   | 2          | 2           | FlexPWM4 sm2 A     | 30  | 10      | TMR1 ch0 | 20 |
+//! | J2   | 5          | 5           | FlexPWM2 sm1 A     | 31  | 11      | TMR1 ch2 | 21 |
+//! | J3   | 6          | 6           | FlexPWM2 sm2 A     | 32  | 12      | TMR1 ch1 | 22 |
+//! | J4   | 8          | 8           | FlexPWM1 sm3 A     | 33  | 14      | TMR3 ch2 | 23 |
+//! | J5   | 4          | 4           | FlexPWM2 sm0 A     | 35  | 15      | TMR3 ch3 | 24 |
+//! | J6   | **7**      | **36**      | FlexPWM2 sm3 A     | 34  | 19      | TMR3 ch0 | 25 |
+//!
+//! The C++ wiring put J4 on pin 8 (FlexPWM1 sm3 A) and J6 on pin 7
+//! (FlexPWM1 sm3 **B**): one submodule, one counter, one period, so J4 and J6
+//! could never step at different rates. The fix moves **only the J6 STEP wire,
+//! from pin 7 to pin 36** (GPIO_B1_02, FlexPWM2 sm3 A, ALT6), the free
+//! submodule closest to the DIR pins 30..35. Every other wire stays. (Pin 29,
+//! FlexPWM3 sm1 A, would also work.) Pin 7 is left unused.
+//!
+//! Every pin of the map is checked by [`check`] in a `const` context
+//! ([`DEFAULT_PIN_MAP`] is built with [`PinMap::validated`]), so a map that
+//! shares a FlexPWM submodule or a QuadTimer channel, or uses a pin twice
+//! (including the Serial1 pins 0/1), does not compile:
+//!
+//! ```compile_fail
+//! use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
+//! // The C++ STEP pins: 7 and 8 share FlexPWM1 submodule 3.
+//! const CPP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 7], ..DEFAULT_PIN_MAP }.validated();
+//! ```
+//!
+//! The same construction with the fixed pins compiles (control for the test
+//! above, so it cannot pass for an unrelated reason):
+//!
+//! ```
+//! use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
+//! const FIXED: PinMap = PinMap { step: [2, 5, 6, 8, 4, 36], ..DEFAULT_PIN_MAP }.validated();
+//! assert_eq!(FIXED, DEFAULT_PIN_MAP);
+//! ```
+//!
+//! The encoder map without pin 19 (the C++ omission) cannot be expressed (the
+//! array has six entries); putting two encoders on one channel fails:
+//!
+//! ```compile_fail
+//! use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
+//! const BAD: PinMap = PinMap { encoder: [10, 11, 12, 14, 15, 10], ..DEFAULT_PIN_MAP }.validated();
+//! ```
+//!
+//! # Sources and confidence
+//!
+//! Pad, GPIO bit, FlexPWM/QuadTimer function and ALT values come from the
+//! Teensy 4.1 core (`pwm.c` / FreqMeasureMulti tables: "FlexPWM2_3_A 36
+//! B1_02 ALT6", ...), teensy4-rs `teensy4-pins` (pin -> pad) and imxrt-iomuxc
+//! (ALT values of FlexPWM pads, LPUART6 daisy). The QuadTimer3 input
+//! select-input (daisy) values are from several independent Teensy sketches
+//! (TIMER0/2/3 = 1, TIMER1 = 0) and **were not checked against the reference
+//! manual: bench-confirm** that pins 14, 15, 19 count.
+
+/// i.MXRT1062 pads reachable from Teensy 4.1 pins 0..=37.
+#[allow(non_camel_case_types, missing_docs)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pad {
+    GPIO_AD_B0_02,
+    GPIO_AD_B0_03,
+    GPIO_AD_B0_12,
+    GPIO_AD_B0_13,
+    GPIO_AD_B1_00,
+    GPIO_AD_B1_01,
+    GPIO_AD_B1_02,
+    GPIO_AD_B1_03,
+    GPIO_AD_B1_06,
+    GPIO_AD_B1_07,
+    GPIO_AD_B1_08,
+    GPIO_AD_B1_09,
+    GPIO_AD_B1_10,
+    GPIO_AD_B1_11,
+    GPIO_AD_B1_14,
+    GPIO_AD_B1_15,
+    GPIO_B0_00,
+    GPIO_B0_01,
+    GPIO_B0_02,
+    GPIO_B0_03,
+    GPIO_B0_10,
+    GPIO_B0_11,
+    GPIO_B0_12,
+    GPIO_B1_00,
+    GPIO_B1_01,
+    GPIO_B1_02,
+    GPIO_B1_03,
+    GPIO_B1_12,
+    GPIO_B1_13,
+    GPIO_EMC_04,
+    GPIO_EMC_05,
+    GPIO_EMC_06,
+    GPIO_EMC_07,
+    GPIO_EMC_08,
+    GPIO_EMC_31,
+    GPIO_EMC_32,
+    GPIO_EMC_36,
+    GPIO_EMC_37,
+}
+
+/// ALT mode selecting GPIO on every pad above.
+pub const GPIO_ALT: u8 = 5;
+
+/// Standard (slow) GPIO port 1..=4 and bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpioBit {
+    /// GPIO1..GPIO4.
+    pub port: u8,
+    /// Bit 0..=31.
+    pub bit: u8,
+}
+
+/// FlexPWM output of a submodule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PwmOutput {
+    /// PWM_A (VAL2/VAL3).
+    A,
+    /// PWM_B (VAL4/VAL5).
+    B,
+}
+
+/// A FlexPWM function of a pad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FlexPwmFn {
+    /// FlexPWM1..=4.
+    pub module: u8,
+    /// Submodule 0..=3 (one counter / period each).
+    pub submodule: u8,
+    /// Output.
+    pub output: PwmOutput,
+    /// IOMUXC ALT.
+    pub alt: u8,
+}
+
+/// A QuadTimer input function of a pad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct QtimerFn {
+    /// TMR1..=4.
+    pub module: u8,
+    /// Channel 0..=3 (its input pin index, used as SCS).
+    pub channel: u8,
+    /// IOMUXC ALT.
+    pub alt: u8,
+    /// `IOMUXC_QTIMERn_TIMERm_SELECT_INPUT` value, if that register exists
+    /// (TMR2, TMR3); TMR1 and TMR4 have none.
+    pub daisy: Option<u8>,
+}
+
+/// Everything known about one Teensy 4.1 pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TeensyPin {
+    /// Teensy pin number.
+    pub pin: u8,
+    /// Processor pad.
+    pub pad: Pad,
+    /// GPIO (ALT5).
+    pub gpio: GpioBit,
+    /// FlexPWM A/B output, if any (X outputs are not supported).
+    pub pwm: Option<FlexPwmFn>,
+    /// QuadTimer input, if any.
+    pub qtimer: Option<QtimerFn>,
+}
+
+const fn g(port: u8, bit: u8) -> GpioBit {
+    GpioBit { port, bit }
+}
+const fn pwm(module: u8, submodule: u8, output: PwmOutput, alt: u8) -> Option<FlexPwmFn> {
+    Some(FlexPwmFn { module, submodule, output, alt })
+}
+const fn qt(module: u8, channel: u8, daisy: Option<u8>) -> Option<QtimerFn> {
+    Some(QtimerFn { module, channel, alt: 1, daisy })
+}
+
+/// Teensy 4.1 pin database (pins 0..=37).
+pub const fn teensy41_pin(pin: u8) -> Option<TeensyPin> {
+    use Pad::*;
+    use PwmOutput::{A, B};
+    let (pad, gpio, pwm, qtimer) = match pin {
+        0 => (GPIO_AD_B0_03, g(1, 3), None, None),
+        1 => (GPIO_AD_B0_02, g(1, 2), None, None),
+        2 => (GPIO_EMC_04, g(4, 4), pwm(4, 2, A, 1), None),
+        3 => (GPIO_EMC_05, g(4, 5), pwm(4, 2, B, 1), None),
+        4 => (GPIO_EMC_06, g(4, 6), pwm(2, 0, A, 1), None),
+        5 => (GPIO_EMC_08, g(4, 8), pwm(2, 1, A, 1), None),
+        6 => (GPIO_B0_10, g(2, 10), pwm(2, 2, A, 2), qt(4, 1, None)),
+        7 => (GPIO_B1_01, g(2, 17), pwm(1, 3, B, 6), None),
+        8 => (GPIO_B1_00, g(2, 16), pwm(1, 3, A, 6), None),
+        9 => (GPIO_B0_11, g(2, 11), pwm(2, 2, B, 2), qt(4, 2, None)),
+        10 => (GPIO_B0_00, g(2, 0), None, qt(1, 0, None)),
+        11 => (GPIO_B0_02, g(2, 2), None, qt(1, 2, None)),
+        12 => (GPIO_B0_01, g(2, 1), None, qt(1, 1, None)),
+        13 => (GPIO_B0_03, g(2, 3), None, qt(2, 0, Some(1))),
+        14 => (GPIO_AD_B1_02, g(1, 18), None, qt(3, 2, Some(1))),
+        15 => (GPIO_AD_B1_03, g(1, 19), None, qt(3, 3, Some(1))),
+        16 => (GPIO_AD_B1_07, g(1, 23), None, None),
+        17 => (GPIO_AD_B1_06, g(1, 22), None, None),
+        18 => (GPIO_AD_B1_01, g(1, 17), None, qt(3, 1, Some(0))),
+        19 => (GPIO_AD_B1_00, g(1, 16), None, qt(3, 0, Some(1))),
+        20 => (GPIO_AD_B1_10, g(1, 26), None, None),
+        21 => (GPIO_AD_B1_11, g(1, 27), None, None),
+        22 => (GPIO_AD_B1_08, g(1, 24), pwm(4, 0, A, 1), None),
+        23 => (GPIO_AD_B1_09, g(1, 25), pwm(4, 1, A, 1), None),
+        24 => (GPIO_AD_B0_12, g(1, 12), None, None),
+        25 => (GPIO_AD_B0_13, g(1, 13), None, None),
+        26 => (GPIO_AD_B1_14, g(1, 30), None, None),
+        27 => (GPIO_AD_B1_15, g(1, 31), None, None),
+        28 => (GPIO_EMC_32, g(3, 18), pwm(3, 1, B, 1), None),
+        29 => (GPIO_EMC_31, g(4, 31), pwm(3, 1, A, 1), None),
+        30 => (GPIO_EMC_37, g(3, 23), None, None),
+        31 => (GPIO_EMC_36, g(3, 22), None, None),
+        32 => (GPIO_B0_12, g(2, 12), None, None),
+        33 => (GPIO_EMC_07, g(4, 7), pwm(2, 0, B, 1), None),
+        34 => (GPIO_B1_13, g(2, 29), None, None),
+        35 => (GPIO_B1_12, g(2, 28), None, None),
+        36 => (GPIO_B1_02, g(2, 18), pwm(2, 3, A, 6), None),
+        37 => (GPIO_B1_03, g(2, 19), pwm(2, 3, B, 6), None),
+        _ => return None,
+    };
+    Some(TeensyPin { pin, pad, gpio, pwm, qtimer })
+}
+
+/// Serial1 = LPUART6: pin 0 RX (GPIO_AD_B0_03), pin 1 TX (GPIO_AD_B0_02),
+/// ALT2, select-input (daisy) value 1 for both.
+pub const SERIAL_PINS: [u8; 2] = [0, 1];
+/// LPUART6 ALT on pins 0/1.
+pub const SERIAL_ALT: u8 = 2;
+/// LPUART6 RX/TX select-input value for pads AD_B0_03 / AD_B0_02.
+pub const SERIAL_DAISY: u8 = 1;
+
+/// The pins of the six axes J1..J6.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PinMap {
+    /// STEP outputs (FlexPWM A/B), each on its own submodule.
+    pub step: [u8; 6],
+    /// DIR outputs (GPIO).
+    pub dir: [u8; 6],
+    /// Encoder PWM inputs (QuadTimer), each on its own channel.
+    pub encoder: [u8; 6],
+    /// Limit switch inputs (GPIO, pull-up, active low).
+    pub limit: [u8; 6],
+}
+
+/// Why a pin map is invalid. The payload is the offending Teensy pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PinMapError {
+    /// Not a Teensy 4.1 pin of the database.
+    UnknownPin(u8),
+    /// STEP pin without a FlexPWM A/B function.
+    NotStepCapable(u8),
+    /// Two STEP pins on one FlexPWM submodule (second pin reported).
+    StepSubmoduleShared(u8),
+    /// Encoder pin without a QuadTimer input.
+    NotEncoderCapable(u8),
+    /// Two encoder pins on one QuadTimer channel (second pin reported).
+    EncoderChannelShared(u8),
+    /// A pin used twice across STEP/DIR/encoder/limit/serial (second use).
+    PinUsedTwice(u8),
+}
+
+impl PinMapError {
+    /// Static message (usable in `const` panics).
+    pub const fn message(self) -> &'static str {
+        match self {
+            PinMapError::UnknownPin(_) => "pin map: unknown Teensy 4.1 pin",
+            PinMapError::NotStepCapable(_) => "pin map: STEP pin has no FlexPWM A/B output",
+            PinMapError::StepSubmoduleShared(_) => {
+                "pin map: two STEP pins share one FlexPWM submodule (cannot run at different rates)"
+            }
+            PinMapError::NotEncoderCapable(_) => "pin map: encoder pin has no QuadTimer input",
+            PinMapError::EncoderChannelShared(_) => "pin map: two encoder pins share one QuadTimer channel",
+            PinMapError::PinUsedTwice(_) => "pin map: a pin is used twice (STEP/DIR/encoder/limit/serial 0,1)",
+        }
+    }
+}
+
+/// Check a pin map (see module docs).
+pub const fn check(map: &PinMap) -> Result<(), PinMapError> {
+    // every pin known
+    let all = map.all_pins();
+    let mut rest: &[u8] = &all;
+    while let Some((&p, tail)) = rest.split_first() {
+        if teensy41_pin(p).is_none() {
+            return Err(PinMapError::UnknownPin(p));
+        }
+        // no pin twice
+        let mut later: &[u8] = tail;
+        while let Some((&q, t2)) = later.split_first() {
+            if p == q {
+                return Err(PinMapError::PinUsedTwice(q));
+            }
+            later = t2;
+        }
+        rest = tail;
+    }
+    // STEP: FlexPWM, distinct submodules
+    let mut rest: &[u8] = &map.step;
+    while let Some((&p, tail)) = rest.split_first() {
+        let Some(a) = step_fn(p) else {
+            return Err(PinMapError::NotStepCapable(p));
+        };
+        let mut later: &[u8] = tail;
+        while let Some((&q, t2)) = later.split_first() {
+            if let Some(b) = step_fn(q) {
+                if a.module == b.module && a.submodule == b.submodule {
+                    return Err(PinMapError::StepSubmoduleShared(q));
+                }
+            }
+            later = t2;
+        }
+        rest = tail;
+    }
+    // encoders: QuadTimer, distinct channels
+    let mut rest: &[u8] = &map.encoder;
+    while let Some((&p, tail)) = rest.split_first() {
+        let Some(a) = encoder_fn(p) else {
+            return Err(PinMapError::NotEncoderCapable(p));
+        };
+        let mut later: &[u8] = tail;
+        while let Some((&q, t2)) = later.split_first() {
+            if let Some(b) = encoder_fn(q) {
+                if a.module == b.module && a.channel == b.channel {
+                    return Err(PinMapError::EncoderChannelShared(q));
+                }
+            }
+            later = t2;
+        }
+        rest = tail;
+    }
+    Ok(())
+}
+
+/// FlexPWM function of a pin, if any.
+pub const fn step_fn(pin: u8) -> Option<FlexPwmFn> {
+    match teensy41_pin(pin) {
+        Some(p) => p.pwm,
+        None => None,
+    }
+}
+
+/// QuadTimer input of a pin, if any.
+pub const fn encoder_fn(pin: u8) -> Option<QtimerFn> {
+    match teensy41_pin(pin) {
+        Some(p) => p.qtimer,
+        None => None,
+    }
+}
+
+impl PinMap {
+    /// All 26 pins: STEP, DIR, encoder, limit, serial.
+    pub const fn all_pins(&self) -> [u8; 26] {
+        let [s0, s1, s2, s3, s4, s5] = self.step;
+        let [d0, d1, d2, d3, d4, d5] = self.dir;
+        let [e0, e1, e2, e3, e4, e5] = self.encoder;
+        let [l0, l1, l2, l3, l4, l5] = self.limit;
+        let [r0, r1] = SERIAL_PINS;
+        [s0, s1, s2, s3, s4, s5, d0, d1, d2, d3, d4, d5, e0, e1, e2, e3, e4, e5, l0, l1, l2, l3, l4, l5, r0, r1]
+    }
+
+    /// Return `self` if [`check`] passes; otherwise panic, which in a `const`
+    /// context is a compile error.
+    pub const fn validated(self) -> Self {
+        match check(&self) {
+            Ok(()) => self,
+            Err(e) => panic!("{}", e.message()),
+        }
+    }
+}
+
+/// The PAROL6 pin map of this firmware (see module docs for the rewiring).
+pub const DEFAULT_PIN_MAP: PinMap = PinMap {
+    step: [2, 5, 6, 8, 4, 36],
+    dir: [30, 31, 32, 33, 35, 34],
+    encoder: [10, 11, 12, 14, 15, 19],
+    limit: [20, 21, 22, 23, 24, 25],
+}
+.validated();
+
+const _: () = assert!(check(&DEFAULT_PIN_MAP).is_ok());
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_step_pins() {
+        let want = [(2, 4, 2), (5, 2, 1), (6, 2, 2), (8, 1, 3), (4, 2, 0), (36, 2, 3)];
+        for (i, (pin, module, sm)) in want.into_iter().enumerate() {
+            assert_eq!(DEFAULT_PIN_MAP.step[i], pin);
+            let f = step_fn(pin).unwrap();
+            assert_eq!((f.module, f.submodule, f.output), (module, sm, PwmOutput::A), "pin {pin}");
+        }
+        // ALT values (Teensy core tables)
+        assert_eq!(step_fn(2).unwrap().alt, 1);
+        assert_eq!(step_fn(6).unwrap().alt, 2);
+        assert_eq!(step_fn(8).unwrap().alt, 6);
+        assert_eq!(step_fn(36).unwrap().alt, 6);
+        assert_eq!(teensy41_pin(36).unwrap().pad, Pad::GPIO_B1_02);
+    }
+
+    #[test]
+    fn default_encoder_pins() {
+        let want = [(10, 1, 0), (11, 1, 2), (12, 1, 1), (14, 3, 2), (15, 3, 3), (19, 3, 0)];
+        for (i, (pin, module, ch)) in want.into_iter().enumerate() {
+            assert_eq!(DEFAULT_PIN_MAP.encoder[i], pin);
+            let f = encoder_fn(pin).unwrap();
+            assert_eq!((f.module, f.channel, f.alt), (module, ch, 1), "pin {pin}");
+            assert_eq!(f.daisy.is_some(), module == 3);
+        }
+        // J6 on pin 19 = TMR3 ch0, the channel the C++ map forgot
+        assert_eq!(encoder_fn(19).unwrap().daisy, Some(1));
+    }
+
+    #[test]
+    fn default_dir_and_limit_pins() {
+        let dir = [(30, 3, 23), (31, 3, 22), (32, 2, 12), (33, 4, 7), (35, 2, 28), (34, 2, 29)];
+        for (i, (pin, port, bit)) in dir.into_iter().enumerate() {
+            assert_eq!(DEFAULT_PIN_MAP.dir[i], pin);
+            assert_eq!(teensy41_pin(pin).unwrap().gpio, GpioBit { port, bit });
+        }
+        let lim = [(20, 1, 26), (21, 1, 27), (22, 1, 24), (23, 1, 25), (24, 1, 12), (25, 1, 13)];
+        for (i, (pin, port, bit)) in lim.into_iter().enumerate() {
+            assert_eq!(DEFAULT_PIN_MAP.limit[i], pin);
+            assert_eq!(teensy41_pin(pin).unwrap().gpio, GpioBit { port, bit });
+        }
+    }
+
+    #[test]
+    fn cpp_step_map_rejected() {
+        let cpp = PinMap { step: [2, 5, 6, 8, 4, 7], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&cpp), Err(PinMapError::StepSubmoduleShared(7)));
+    }
+
+    #[test]
+    fn other_rejections() {
+        let m = PinMap { dir: [30, 31, 32, 33, 35, 0], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::PinUsedTwice(0)));
+        let m = PinMap { limit: [20, 21, 22, 23, 24, 2], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::PinUsedTwice(2)));
+        let m = PinMap { step: [2, 5, 6, 8, 4, 30], dir: [29, 31, 32, 33, 35, 34], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::NotStepCapable(30)));
+        let m = PinMap { encoder: [10, 11, 12, 14, 15, 16], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::NotEncoderCapable(16)));
+        let m = PinMap { encoder: [10, 11, 12, 14, 15, 99], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::UnknownPin(99)));
+        // A and B of one submodule conflict too
+        let m = PinMap { step: [2, 3, 6, 8, 4, 36], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Err(PinMapError::StepSubmoduleShared(3)));
+        // alternative fix with pin 29 is valid
+        let m = PinMap { step: [2, 5, 6, 8, 4, 29], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&m), Ok(()));
+    }
+
+    #[test]
+    fn database_is_self_consistent() {
+        for pin in 0..=37u8 {
+            let p = teensy41_pin(pin).unwrap();
+            assert_eq!(p.pin, pin);
+            assert!((1..=4).contains(&p.gpio.port) && p.gpio.bit < 32);
+            // pads unique
+            for other in 0..pin {
+                assert_ne!(teensy41_pin(other).unwrap().pad, p.pad, "{pin} {other}");
+            }
+        }
+        assert!(teensy41_pin(38).is_none());
+    }
+}

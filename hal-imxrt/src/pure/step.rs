@@ -1,0 +1,260 @@
+//! Step-rate -> FlexPWM submodule programming (period, prescaler, pulse).
+//!
+//! A FlexPWM submodule counts the IPG clock (150 MHz) divided by
+//! `2^prescaler_log2` (`SMCTRL[PRSC]`, 0..=7) from `INIT = 0` to
+//! `VAL1 = period - 1`; the output goes high at `VAL2 = 0` (A) / `VAL4 = 0`
+//! (B) and low at `VAL3` / `VAL5 = pulse`. One STEP pulse per period.
+//!
+//! Rates are signed milli-steps per second (`i32`, +-2.1 Msteps/s range) so the
+//! sub-step/s resolution of slow moves is not lost; the sign is the direction.
+//! The prescaler is the smallest that lets the period fit in 16 bits, which
+//! maximises resolution: the rounding error of the period is at most half a
+//! count, i.e. a relative rate error `<= 1 / (2 * period)`; with the smallest
+//! prescaler `period >= 32768` unless the prescaler is 1, so the error is
+//! `<= 15 ppm` below 2289 steps/s and `<= 0.5 / (150e6 / rate)` above (0.04 %
+//! at 120 ksteps/s).
+
+/// Step direction (what the DIR pin is set to; polarity per axis is the
+/// kernel's configuration).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Positive rate: DIR pin high.
+    Positive,
+    /// Negative rate: DIR pin low.
+    Negative,
+}
+
+/// What to program into one axis' step generator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepCommand {
+    /// No pulses (output masked low).
+    Stop,
+    /// Generate pulses.
+    Run(StepTiming),
+}
+
+/// Timer programming for a running axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepTiming {
+    /// Direction.
+    pub dir: Direction,
+    /// `SMCTRL[PRSC]`: timer clock = IPG / 2^prescaler_log2.
+    pub prescaler_log2: u8,
+    /// Period in timer counts (`VAL1 = period - 1`), 2..=65535... see config.
+    pub period: u16,
+    /// High time in timer counts (`VAL3`).
+    pub pulse: u16,
+}
+
+/// Step generator configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepConfig {
+    /// Timer input clock (IPG), Hz.
+    pub timer_hz: u32,
+    /// STEP high time, ns (TMC5160 needs >= ~100 ns; 1 us is generous and
+    /// also suits opto-isolated inputs).
+    pub pulse_ns: u32,
+    /// Minimum low time, ns.
+    pub min_low_ns: u32,
+    /// Rates with |rate| below this are `Stop`, milli-steps/s.
+    pub min_rate_mhz: u32,
+    /// Rates with |rate| above this are refused, milli-steps/s.
+    pub max_rate_mhz: u32,
+}
+
+impl StepConfig {
+    /// 150 MHz timer, 1 us pulses, 1 us minimum low time, stop below
+    /// 20 steps/s (>= the 17.9 steps/s hardware minimum), refuse above
+    /// 200 ksteps/s. J3 needs 6 rad/s * 18431.6 = 110.6 ksteps/s.
+    pub const DEFAULT: StepConfig = StepConfig {
+        timer_hz: 150_000_000,
+        pulse_ns: 1_000,
+        min_low_ns: 1_000,
+        min_rate_mhz: 20_000,
+        max_rate_mhz: 200_000_000,
+    };
+
+    /// Lowest rate the hardware can generate (prescaler 128, period 65535),
+    /// milli-steps/s, rounded up.
+    pub const fn hardware_min_rate_mhz(&self) -> u32 {
+        let den = 128u64 * 65_535;
+        ((self.timer_hz as u64 * 1000).div_ceil(den)) as u32
+    }
+
+    /// Highest rate that keeps the pulse and low times at prescaler 1,
+    /// milli-steps/s.
+    pub const fn hardware_max_rate_mhz(&self) -> u32 {
+        let pulse = counts_ceil(self.pulse_ns, self.timer_hz) as u64;
+        let low = counts_ceil(self.min_low_ns, self.timer_hz) as u64;
+        let period = pulse + low;
+        if period == 0 {
+            return 0;
+        }
+        let r = self.timer_hz as u64 * 1000 / period;
+        if r > u32::MAX as u64 {
+            u32::MAX
+        } else {
+            r as u32
+        }
+    }
+
+    /// Configured limits are inside what the hardware can do.
+    pub const fn is_valid(&self) -> bool {
+        self.timer_hz > 0
+            && self.pulse_ns > 0
+            && self.min_rate_mhz >= self.hardware_min_rate_mhz()
+            && self.max_rate_mhz <= self.hardware_max_rate_mhz()
+            && self.min_rate_mhz < self.max_rate_mhz
+    }
+}
+
+const _: () = assert!(StepConfig::DEFAULT.is_valid());
+
+const fn counts_ceil(ns: u32, hz: u32) -> u32 {
+    let c = (ns as u64 * hz as u64).div_ceil(1_000_000_000);
+    if c > u16::MAX as u64 {
+        u16::MAX as u32
+    } else {
+        c as u32
+    }
+}
+
+/// Step-rate errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepRateError {
+    /// |rate| above the configured maximum; the kernel's limits are
+    /// inconsistent with the HAL's (it must never ask for this).
+    AboveMax,
+    /// Configuration not valid (see [`StepConfig::is_valid`]).
+    BadConfig,
+}
+
+/// Signed rate (milli-steps/s) -> step generator command.
+pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand, StepRateError> {
+    if !cfg.is_valid() {
+        return Err(StepRateError::BadConfig);
+    }
+    let mag = rate_mhz.unsigned_abs();
+    if mag < cfg.min_rate_mhz {
+        return Ok(StepCommand::Stop);
+    }
+    if mag > cfg.max_rate_mhz {
+        return Err(StepRateError::AboveMax);
+    }
+    let dir = if rate_mhz > 0 { Direction::Positive } else { Direction::Negative };
+    // ideal period in timer-clock counts, x1000 for milli-steps
+    let clk_x1000 = cfg.timer_hz as u64 * 1000;
+    let mut p: u8 = 0;
+    while p <= 7 {
+        let den = mag as u64 * (1u64 << p);
+        let period = (clk_x1000 + den / 2) / den; // rounded
+        if period <= 65_535 {
+            let pulse = counts_ceil(cfg.pulse_ns, cfg.timer_hz >> p);
+            let pulse = if pulse == 0 { 1 } else { pulse };
+            if period < 2 || pulse as u64 >= period {
+                // cannot happen for a valid config and mag <= max
+                return Err(StepRateError::AboveMax);
+            }
+            return Ok(StepCommand::Run(StepTiming {
+                dir,
+                prescaler_log2: p,
+                period: period as u16,
+                pulse: pulse as u16,
+            }));
+        }
+        p += 1;
+    }
+    // below hardware minimum: excluded by is_valid + min_rate check
+    Ok(StepCommand::Stop)
+}
+
+/// Rate (milli-steps/s, signed) that a command actually produces.
+pub const fn achieved_rate_mhz(cmd: &StepCommand, cfg: &StepConfig) -> i64 {
+    match cmd {
+        StepCommand::Stop => 0,
+        StepCommand::Run(t) => {
+            let den = t.period as u64 * (1u64 << t.prescaler_log2);
+            if den == 0 {
+                return 0;
+            }
+            let r = ((cfg.timer_hz as u64 * 1000 + den / 2) / den) as i64;
+            match t.dir {
+                Direction::Positive => r,
+                Direction::Negative => -r,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    const CFG: StepConfig = StepConfig::DEFAULT;
+
+    fn rel_err_ppm(want: i32, got: i64) -> u64 {
+        ((got - want as i64).unsigned_abs() * 1_000_000) / want.unsigned_abs() as u64
+    }
+
+    #[test]
+    fn hardware_limits() {
+        // 150e6 / 128 / 65535 = 17.88 steps/s
+        assert_eq!(CFG.hardware_min_rate_mhz(), 17_882);
+        // 1 us + 1 us at 150 MHz = 300 counts -> 500 ksteps/s
+        assert_eq!(CFG.hardware_max_rate_mhz(), 500_000_000);
+        assert!(CFG.is_valid());
+    }
+
+    #[test]
+    fn stop_below_min_and_zero() {
+        assert_eq!(step_command(0, &CFG), Ok(StepCommand::Stop));
+        assert_eq!(step_command(19_999, &CFG), Ok(StepCommand::Stop));
+        assert_eq!(step_command(-19_999, &CFG), Ok(StepCommand::Stop));
+        assert!(matches!(step_command(20_000, &CFG), Ok(StepCommand::Run(_))));
+    }
+
+    #[test]
+    fn refuses_above_max() {
+        assert_eq!(step_command(200_000_001, &CFG), Err(StepRateError::AboveMax));
+        assert_eq!(step_command(i32::MIN, &CFG), Err(StepRateError::AboveMax));
+    }
+
+    #[test]
+    fn joint_max_rates_are_reachable() {
+        // J2 3 rad/s * 20371.83, J3 6 rad/s * 18431.62 steps/rad
+        for sps in [61_116i32, 110_590] {
+            let cmd = step_command(sps * 1000, &CFG).unwrap();
+            assert!(matches!(cmd, StepCommand::Run(_)));
+        }
+    }
+
+    #[test]
+    fn round_trip_error_bounded() {
+        let mut rate: i64 = 20_000;
+        while rate <= 200_000_000 {
+            for sign in [1i64, -1] {
+                let r = (rate * sign) as i32;
+                let cmd = step_command(r, &CFG).unwrap();
+                let StepCommand::Run(t) = cmd else { panic!("stop at {r}") };
+                assert_eq!(t.dir == Direction::Positive, r > 0);
+                let got = achieved_rate_mhz(&cmd, &CFG);
+                // half a count of the period, plus rounding of the result
+                // plus rounding of the achieved rate to whole milli-steps/s
+                let bound = 1_000_000 / (2 * t.period as u64) + 500_000 / rate as u64 + 1;
+                assert!(rel_err_ppm(r, got) <= bound, "rate {r} got {got}");
+                // resolution: smallest prescaler => period > 32767 unless p=0
+                assert!(t.prescaler_log2 == 0 || t.period > 32_767);
+                assert!(t.pulse < t.period);
+                // pulse >= 1 us
+                let pulse_ns = t.pulse as u64 * (1u64 << t.prescaler_log2) * 1_000_000_000 / CFG.timer_hz as u64;
+                assert!(pulse_ns >= 1_000 - 7);
+            }
+            rate = rate * 11 / 10 + 1;
+        }
+    }
+
+    #[test]
+    fn bad_config_refused() {
+        let bad = StepConfig { min_rate_mhz: 1_000, ..CFG };
+        assert_eq!(step_command(50_000, &bad), Err(StepRateError::BadConfig));
+    }
+}
