@@ -178,7 +178,10 @@ pub struct Kernel<S: Scalar> {
     boot_ticks: u32,
     since_cmd: u32,
     armed: bool,
-    last_target_tick: Option<u32>,
+    /// Ticks since the last accepted target (saturates at `seg_max`), or
+    /// `None` after a resync.
+    since_target: Option<u32>,
+    /// Recent target intervals, each already bounded to `seg_min..=seg_max`.
     intervals: [u32; 4],
     /// Outputs applied last tick (the soft stop ramps down from these).
     last_out: [S; AXES],
@@ -214,7 +217,7 @@ impl<S: Scalar> Kernel<S> {
             boot_ticks: 0,
             since_cmd: 0,
             armed: false,
-            last_target_tick: None,
+            since_target: None,
             intervals: [0; 4],
             last_out: [S::ZERO; AXES],
         };
@@ -265,6 +268,8 @@ impl<S: Scalar> Kernel<S> {
     /// supervise, and return the checked outputs for every axis.
     pub fn tick(&mut self, sense: &Sense, request: Option<Request<S>>) -> TickOutput<S> {
         self.tick = self.tick.wrapping_add(1);
+        let cap = self.p.seg_max;
+        self.since_target = self.since_target.map(|t| t.saturating_add(1).min(cap));
         let mut events = Events::new();
         let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware);
         let limits = sense.limits & ALL;
@@ -502,7 +507,7 @@ impl<S: Scalar> Kernel<S> {
         }
         self.armed = false;
         self.since_cmd = 0;
-        self.last_target_tick = None;
+        self.since_target = None;
     }
 
     /// Checks that apply in every state, and the outputs themselves.
@@ -616,16 +621,16 @@ impl<S: Scalar> Kernel<S> {
         }
         self.validate(t)?;
         // Segment length: median of recent target intervals, bounded.
-        let n = match self.last_target_tick {
+        let n = match self.since_target {
             None => self.p.seg_max,
-            Some(prev) => {
-                let gap = self.tick.wrapping_sub(prev);
+            Some(gap) => {
+                let gap = gap.clamp(self.p.seg_min, self.p.seg_max);
                 let [_, a, b, c] = self.intervals;
                 self.intervals = if self.intervals == [0; 4] { [gap; 4] } else { [a, b, c, gap] };
-                median4(self.intervals).clamp(self.p.seg_min, self.p.seg_max)
+                median4(self.intervals)
             }
         };
-        self.last_target_tick = Some(self.tick);
+        self.since_target = Some(0);
         let inv_n = self.p.recip.get(n as usize).copied().unwrap_or(S::ZERO);
         for ((ax, p), target) in self.axes.iter_mut().zip(self.p.axes.iter()).zip(t.position.iter()) {
             ax.interp.retarget(*target, inv_n, p.max_step);

@@ -37,7 +37,28 @@ both!(
     per_joint_homing_respects_dependencies,
     homing_timeout_reports_h3_and_refuses_motion,
     hardware_overrun_faults,
+    homed_axis_leaving_its_limits_faults,
 );
+
+fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
+    let mut r = homed::<S>();
+    // J2 is dragged harder than its 3 rad/s clamp can resist, so it drifts at
+    // a net 0.5 rad/s (below its runaway speed) past its upper limit + margin.
+    r.plant.disturbance[1] = 3.5;
+    let n = r.run_until(5_000, |o| o.status.state == State::Fault).expect("position fault");
+    let out = r.last.unwrap();
+    assert_eq!(out.status.fault.unwrap().reason, FaultReason::PositionLimit { axis: 1 });
+    let over = r.plant.q[1] - (PAROL6.joints[1].limit_max + PAROL6.position_margin) as f64;
+    assert!(over >= 0.0 && over < 0.01, "detected {over} rad past the margin after {n} ticks");
+    // Enable is refused while it is still outside.
+    r.plant.disturbance[1] = 0.0;
+    let out = r.enable();
+    assert!(out.events.iter().any(|e| *e
+        == Event::Rejected {
+            request: RequestKind::Enable,
+            reason: Reject::CauseActive(FaultReason::PositionLimit { axis: 1 })
+        }));
+}
 
 fn homed<S: Scalar>() -> Rig<S> {
     let mut r = Rig::<S>::new(START);
