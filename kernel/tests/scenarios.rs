@@ -1,5 +1,6 @@
 //! Whole-kernel scenarios, run for both numeric variants, including the C++
 //! firmware's defects (ROBOT.md section 6) as regression tests.
+#![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 mod common;
 
@@ -49,7 +50,7 @@ fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
     let out = r.last.unwrap();
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::PositionLimit { axis: 1 });
     let over = r.plant.q[1] - (PAROL6.joints[1].limit_max + PAROL6.position_margin) as f64;
-    assert!(over >= 0.0 && over < 0.01, "detected {over} rad past the margin after {n} ticks");
+    assert!((0.0..0.01).contains(&over), "detected {over} rad past the margin after {n} ticks");
     // Enable is refused while it is still outside.
     r.plant.disturbance[1] = 0.0;
     let out = r.enable();
@@ -120,7 +121,7 @@ fn homing_runs_in_the_seed_order<S: Scalar>() {
     assert!(m[0] > m[3].max(m[4]));
     assert_eq!(m[0], m[1]);
     assert_eq!(m[1], m[2]);
-    assert!(r.events.iter().any(|e| *e == Event::HomingDone { mask: 0b11_1111 }));
+    assert!(r.events.contains(&Event::HomingDone { mask: 0b11_1111 }));
 }
 
 /// C++ defect 2: homing worked once.
@@ -152,7 +153,7 @@ fn second_homing_rezeroes<S: Scalar>() {
 }
 
 fn homing_zero_comes_from_the_encoder_reading<S: Scalar>() {
-    let mut r = homed::<S>();
+    let r = homed::<S>();
     let est = r.last.unwrap().status.position;
     for i in 0..AXES {
         let q = r.plant.q[i];
@@ -241,7 +242,7 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
     assert!(stop <= 200, "standstill {stop} ms after the last command (budget 200)");
     assert_eq!(r.k.state(), State::SoftEstop);
     assert!(r.events.iter().any(|e| matches!(e, Event::SoftEstop { .. })));
-    assert!(r.events.iter().any(|e| *e == Event::Stopped));
+    assert!(r.events.contains(&Event::Stopped));
     // Latched: motion is refused until enable.
     let out = r.motion(r.plant.q);
     assert!(out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason: Reject::Latched }));
