@@ -1,5 +1,5 @@
 #![no_std]
-#![forbid(unsafe_op_in_unsafe_fn)]
+#![forbid(unsafe_code)]
 //! Thin register-level HAL for the PAROL6 controller on a Teensy 4.1
 //! (i.MXRT1062, Cortex-M7 at 600 MHz).
 //!
@@ -19,6 +19,24 @@
 //!   `read_reg!`/`modify_reg!`/`write_reg!`; the DWT cycle counter comes from
 //!   the `cortex-m` crate. Every number they program comes from [`pure`].
 //!   Build: `cargo build -p hal-imxrt --target thumbv7em-none-eabihf`.
+//!
+//! # `unsafe`
+//!
+//! The crate is `#![forbid(unsafe_code)]`: `imxrt-ral` register access through
+//! an owned instance is safe. The one unsafe step — creating the instances
+//! (`imxrt_ral::pit::PIT::instance()` etc.) — is the caller's, once at boot;
+//! its `// SAFETY:` argument is that each instance is created exactly once and
+//! moved into exactly one driver here (`periph::gpio::Gpios` is the single
+//! owner of GPIO1..4, shared by DIR and limits via atomic set/clear and
+//! read-only PSR access).
+//!
+//! # Dependencies
+//!
+//! `imxrt-ral` 0.6 (register access), `cortex-m` 0.7 (DWT/DCB, critical
+//! section), both target-only. Hand-written instead of a crate: the baud
+//! search (imxrt-hal's is not a pure function), the MT6816 decoder and the pin
+//! database (no crate knows this board); `imxrt-iomuxc`'s type-state pins do
+//! not fit a pin map chosen by a `const` table.
 //!
 //! # What this crate does not do
 //!

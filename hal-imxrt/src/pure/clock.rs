@@ -8,7 +8,7 @@
 //! | ARM core (AHB)   | 600 MHz    | ARM PLL, AHB_PODF = 1                     |
 //! | IPG (bus)        | 150 MHz    | AHB / 4 (IPG_PODF = 3)                    |
 //! | OSC              | 24 MHz     | crystal                                   |
-//! | PERCLK (PIT)     | 24 MHz     | OSC, PERCLK_PODF = /1 (configured by [`crate`]'s `periph::clocks`) |
+//! | PERCLK (PIT)     | 24 MHz     | OSC, PERCLK_PODF = /1 (set by `periph::clocks`) |
 //! | UART_CLK_ROOT    | 24 MHz     | OSC, UART_CLK_PODF = /1                   |
 //! | FlexPWM counters | 150 MHz    | IPG                                       |
 //! | QuadTimer        | 18.75 MHz  | IPG / 8 (PCS = 0b1011)                    |

@@ -186,6 +186,67 @@ pub const fn achieved_rate_mhz(cmd: &StepCommand, cfg: &StepConfig) -> i64 {
     }
 }
 
+/// What an axis' step output is doing (as last programmed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisOutput {
+    /// Pulses enabled.
+    pub running: bool,
+    /// Level last written to DIR (`None` before the first write).
+    pub dir: Option<Direction>,
+}
+
+impl AxisOutput {
+    /// Stopped, DIR never written.
+    pub const INIT: AxisOutput = AxisOutput { running: false, dir: None };
+}
+
+/// How to get from the current output to a new command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpdatePlan {
+    /// Stopped and stays stopped: nothing to do.
+    Idle,
+    /// Mask the output now (running -> stop).
+    Halt,
+    /// Same direction, already running: write the buffered period/pulse and
+    /// set LDOK; takes effect at the next period boundary (no runt pulse).
+    Retime(StepTiming),
+    /// (Re)start from a masked output: if `dir_change`, write DIR and wait
+    /// the settle time first; then restart the counter so the first rising
+    /// edge comes after the settle time.
+    Restart {
+        /// New timing.
+        timing: StepTiming,
+        /// DIR must be written (and settled) before the first edge.
+        dir_change: bool,
+    },
+}
+
+/// Plan one axis update; returns the plan and the resulting state. A
+/// direction reversal while running masks first (a pulse in flight may be
+/// truncated: at most one step lost, which the encoder loop absorbs) and
+/// then restarts, so no STEP edge ever follows a DIR change by less than the
+/// settle time.
+pub const fn plan_update(state: AxisOutput, cmd: StepCommand) -> (UpdatePlan, AxisOutput) {
+    match cmd {
+        StepCommand::Stop => {
+            let plan = if state.running { UpdatePlan::Halt } else { UpdatePlan::Idle };
+            (plan, AxisOutput { running: false, dir: state.dir })
+        }
+        StepCommand::Run(t) => {
+            let same_dir = matches!(
+                (state.dir, t.dir),
+                (Some(Direction::Positive), Direction::Positive) | (Some(Direction::Negative), Direction::Negative)
+            );
+            let plan = if state.running && same_dir {
+                UpdatePlan::Retime(t)
+            } else {
+                UpdatePlan::Restart { timing: t, dir_change: !same_dir }
+            };
+            (plan, AxisOutput { running: true, dir: Some(t.dir) })
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -256,5 +317,28 @@ mod tests {
     fn bad_config_refused() {
         let bad = StepConfig { min_rate_mhz: 1_000, ..CFG };
         assert_eq!(step_command(50_000, &bad), Err(StepRateError::BadConfig));
+    }
+
+    #[test]
+    fn update_planning() {
+        let t = |dir| StepTiming { dir, prescaler_log2: 0, period: 1500, pulse: 150 };
+        use Direction::*;
+        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Stop);
+        assert_eq!((p, s), (UpdatePlan::Idle, AxisOutput::INIT));
+        // first start always writes DIR
+        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Run(t(Positive)));
+        assert_eq!(p, UpdatePlan::Restart { timing: t(Positive), dir_change: true });
+        // same direction while running: glitch-free retime
+        let (p, s) = plan_update(s, StepCommand::Run(t(Positive)));
+        assert_eq!(p, UpdatePlan::Retime(t(Positive)));
+        // reversal while running: restart with DIR settle
+        let (p, s) = plan_update(s, StepCommand::Run(t(Negative)));
+        assert_eq!(p, UpdatePlan::Restart { timing: t(Negative), dir_change: true });
+        // stop, then start the same way: no DIR write needed
+        let (p, s) = plan_update(s, StepCommand::Stop);
+        assert_eq!(p, UpdatePlan::Halt);
+        assert_eq!(s, AxisOutput { running: false, dir: Some(Negative) });
+        let (p, _) = plan_update(s, StepCommand::Run(t(Negative)));
+        assert_eq!(p, UpdatePlan::Restart { timing: t(Negative), dir_change: false });
     }
 }
