@@ -10,6 +10,10 @@
 //! (the f32 form `x + a (z - x)` can, by rounding) and reaches it exactly.
 //! The feed-forward velocity is the set-point's actual displacement this tick
 //! times the tick rate: it is zero once the target is reached.
+//!
+//! Arrival: a segment of `n` ticks over `d` reaches its target exactly within
+//! `2 max(n, ceil(|d| / max_step)) + 2` ticks (the factor 2 covers the step's
+//! rounding when `|d| / n` is a few LSB).
 
 use crate::scalar::Scalar;
 
@@ -31,11 +35,7 @@ impl<S: Scalar> Interpolator<S> {
     /// per-tick step limited to `max_step` (>= 0).
     pub fn retarget(&mut self, target: S, inv_n: S, max_step: S) {
         let delta = target.minus(self.sp);
-        let step = delta.times(inv_n).saturate(max_step);
-        // A step that rounds to zero would never arrive: take the (sub-LSB
-        // per tick) remainder in one tick instead.
-        let tiny = step == S::ZERO;
-        self.step = S::select(tiny, delta.saturate(max_step), step);
+        self.step = delta.times(inv_n).saturate(max_step);
         self.start = self.sp;
         self.target = target;
     }
@@ -43,7 +43,13 @@ impl<S: Scalar> Interpolator<S> {
     /// this tick)`.
     #[inline]
     pub fn advance(&mut self) -> (S, S) {
-        let next = self.sp.plus(self.step).clamp_between(self.start, self.target);
+        let stepped = self.sp.plus(self.step).clamp_between(self.start, self.target);
+        // A step too small to change the set-point (it rounds to zero in
+        // fixed point, or is under half an ulp of the set-point in f32) would
+        // never arrive: snap to the target. Such a remainder is below
+        // `n` ulps (about 1e-4 rad at 16 rad with n = 64), far below one
+        // tick's speed limit.
+        let next = S::select(stepped == self.sp, self.target, stepped);
         let moved = next.minus(self.sp);
         self.sp = next;
         (next, moved)
@@ -87,6 +93,16 @@ mod tests {
             let (k, _) = run::<Fx>(a, b, 10, 1.0);
             assert!(k <= 11, "fx {a}->{b}: {k}");
         }
+    }
+
+    #[test]
+    fn a_step_below_half_an_ulp_still_arrives() {
+        // sp = 10: ulp 9.5e-7; a 1e-6 move in 10 ticks is 1e-7 per tick.
+        let (k, f) = run::<f32>(10.0, 10.000_001, 10, 1.0);
+        assert!(k <= 2, "{k}");
+        assert_eq!(f, 10.000_001);
+        let (k, _) = run::<Fx>(0.0, 0.000_000_1, 64, 1.0);
+        assert!(k <= 2 * 64 + 2, "{k}");
     }
 
     #[test]
