@@ -1,0 +1,258 @@
+//! Runs one harness: exhaustive enumeration of its choice tree when it is
+//! small and narrow, seeded sampling otherwise; reports what it did.
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::Once;
+
+/// Largest choice tree enumerated exhaustively (leaves).
+pub const EXHAUSTIVE_LIMIT: u64 = 1 << 20;
+/// Largest domain of a single draw that exhaustive mode accepts.
+pub const NARROW_DOMAIN: u64 = 1 << 16;
+
+/// Samples per sampled harness: `KANI_SHIM_SAMPLES`, default 2000.
+pub fn samples() -> u64 {
+    std::env::var("KANI_SHIM_SAMPLES").ok().and_then(|s| s.parse().ok()).unwrap_or(2000)
+}
+
+/// Payload of the panic `kani::assume(false)` raises to discard a case.
+#[derive(Debug)]
+pub struct Discarded;
+
+/// SplitMix64. Hand-written (five lines) rather than taken from `rand`: the
+/// sequence for a seed must never change between dependency versions, or a
+/// recorded failing seed would no longer reproduce.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// Next 64 random bits.
+    #[allow(clippy::should_implement_trait)]
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+}
+
+#[derive(Debug)]
+enum Mode {
+    Exhaustive { prefix: Vec<u64>, trace: Vec<(u64, u64)>, too_wide: bool },
+    Sampled { rng: Rng },
+}
+
+/// Where `kani::any()` gets its values for the current case.
+#[derive(Debug)]
+pub struct Source {
+    mode: Mode,
+}
+
+impl Source {
+    /// A value in `0..domain` (`domain >= 1`).
+    pub fn draw(&mut self, domain: u64) -> u64 {
+        let domain = domain.max(1);
+        match &mut self.mode {
+            Mode::Exhaustive { prefix, trace, too_wide } => {
+                if domain > NARROW_DOMAIN {
+                    *too_wide = true;
+                }
+                let v = prefix.get(trace.len()).copied().unwrap_or(0).min(domain - 1);
+                trace.push((v, domain));
+                v
+            }
+            Mode::Sampled { rng } => {
+                // One draw in four lands on an edge of the domain.
+                if rng.next() % 4 == 0 {
+                    [0, 1.min(domain - 1), domain - 1, domain / 2][(rng.next() % 4) as usize]
+                } else {
+                    rng.next() % domain
+                }
+            }
+        }
+    }
+    /// A value from a domain too wide to enumerate: makes the harness sampled.
+    pub fn wide<T>(&mut self, f: impl FnOnce(&mut Rng) -> T) -> T {
+        match &mut self.mode {
+            Mode::Exhaustive { too_wide, .. } => {
+                *too_wide = true;
+                f(&mut Rng(0))
+            }
+            Mode::Sampled { rng } => f(rng),
+        }
+    }
+}
+
+thread_local! {
+    static SOURCE: RefCell<Option<Source>> = const { RefCell::new(None) };
+    static COVERS: RefCell<BTreeMap<&'static str, bool>> = const { RefCell::new(BTreeMap::new()) };
+}
+
+/// Calls `f` with the current case's source.
+pub fn with_source<T>(f: impl FnOnce(&mut Source) -> T) -> T {
+    SOURCE.with(|s| {
+        let mut s = s.borrow_mut();
+        match s.as_mut() {
+            Some(src) => f(src),
+            None => panic!("kani::any() called outside a #[kani::proof] harness"),
+        }
+    })
+}
+
+pub(crate) fn record_cover(site: &'static str, cond: bool) {
+    COVERS.with(|c| {
+        let mut c = c.borrow_mut();
+        let e = c.entry(site).or_insert(false);
+        *e |= cond;
+    });
+}
+
+fn install_hook() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let default = panic::take_hook();
+        panic::set_hook(Box::new(move |info| {
+            if info.payload().downcast_ref::<Discarded>().is_none() {
+                default(info);
+            }
+        }));
+    });
+}
+
+enum Outcome {
+    Passed,
+    Discarded,
+}
+
+fn run_case(harness: fn(), mode: Mode) -> (Result<Outcome, Box<dyn std::any::Any + Send>>, Mode) {
+    SOURCE.with(|s| *s.borrow_mut() = Some(Source { mode }));
+    let r = panic::catch_unwind(AssertUnwindSafe(harness));
+    let src = SOURCE.with(|s| s.borrow_mut().take());
+    let mode = src.map(|s| s.mode).unwrap_or(Mode::Sampled { rng: Rng(0) });
+    let r = match r {
+        Ok(()) => Ok(Outcome::Passed),
+        Err(p) if p.downcast_ref::<Discarded>().is_some() => Ok(Outcome::Discarded),
+        Err(p) => Err(p),
+    };
+    (r, mode)
+}
+
+fn fnv1a(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
+}
+
+/// What a harness run did.
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// `exhaustive` or `sampled`.
+    pub kind: &'static str,
+    /// Cases that ran to the end.
+    pub cases: u64,
+    /// Cases discarded by `kani::assume`.
+    pub discarded: u64,
+    /// Cover sites reached / declared.
+    pub covers: (usize, usize),
+    /// Seed (sampled only).
+    pub seed: Option<u64>,
+}
+
+/// Runs a harness; panics (failing the test) on a counterexample or an
+/// unreached cover.
+pub fn run(name: &str, harness: fn()) {
+    install_hook();
+    COVERS.with(|c| c.borrow_mut().clear());
+    let report = match exhaustive(name, harness) {
+        Some(r) => r,
+        None => {
+            COVERS.with(|c| c.borrow_mut().clear());
+            sampled(name, harness)
+        }
+    };
+    let covers: BTreeMap<&'static str, bool> = COVERS.with(|c| c.borrow().clone());
+    let hit = covers.values().filter(|h| **h).count();
+    let report = Report { covers: (hit, covers.len()), ..report };
+    let seed = report.seed.map(|s| format!(", seed {s:#x}")).unwrap_or_default();
+    let line = format!(
+        "kani-shim: {name}: {}, {} cases ({} discarded by assume){seed}, covers {}/{}",
+        report.kind,
+        report.cases,
+        report.discarded,
+        hit,
+        covers.len()
+    );
+    println!("{line}");
+    if let Ok(path) = std::env::var("KANI_SHIM_REPORT") {
+        if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(&path) {
+            let _ =
+                writeln!(f, "{name}\t{}\t{}\t{}\t{hit}/{}", report.kind, report.cases, report.discarded, covers.len());
+        }
+    }
+    let missed: Vec<_> = covers.iter().filter(|(_, h)| !**h).map(|(s, _)| *s).collect();
+    assert!(missed.is_empty(), "{line}\ncover never satisfied (vacuous assumption or too few samples): {missed:?}");
+    assert!(report.cases > 0, "{line}\nevery case was discarded by kani::assume: the harness is vacuous");
+}
+
+fn exhaustive(name: &str, harness: fn()) -> Option<Report> {
+    let mut prefix: Vec<u64> = Vec::new();
+    let (mut cases, mut discarded) = (0u64, 0u64);
+    loop {
+        let (r, mode) =
+            run_case(harness, Mode::Exhaustive { prefix: prefix.clone(), trace: Vec::new(), too_wide: false });
+        let Mode::Exhaustive { trace, too_wide, .. } = mode else { return None };
+        if too_wide {
+            return None;
+        }
+        if cases + discarded == 0 {
+            let leaves = trace.iter().fold(1u64, |acc, (_, d)| acc.saturating_mul(*d));
+            if leaves > EXHAUSTIVE_LIMIT {
+                return None;
+            }
+        }
+        match r {
+            Ok(Outcome::Passed) => cases += 1,
+            Ok(Outcome::Discarded) => discarded += 1,
+            Err(p) => {
+                eprintln!("kani-shim: {name}: counterexample (exhaustive), choices {:?}", trace);
+                panic::resume_unwind(p);
+            }
+        }
+        if cases + discarded > EXHAUSTIVE_LIMIT {
+            return None;
+        }
+        // Next leaf of the choice tree, depth first.
+        let mut t = trace;
+        loop {
+            match t.pop() {
+                Some((v, d)) if v + 1 < d => {
+                    t.push((v + 1, d));
+                    break;
+                }
+                Some(_) => continue,
+                None => return Some(Report { kind: "exhaustive", cases, discarded, covers: (0, 0), seed: None }),
+            }
+        }
+        prefix = t.iter().map(|(v, _)| *v).collect();
+    }
+}
+
+fn sampled(name: &str, harness: fn()) -> Report {
+    let seed = std::env::var("KANI_SHIM_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or_else(|| fnv1a(name));
+    let n = samples();
+    let (mut cases, mut discarded) = (0u64, 0u64);
+    for i in 0..n {
+        let case_seed = seed ^ i.wrapping_mul(0xA24B_AED4_963E_E407);
+        let (r, _) = run_case(harness, Mode::Sampled { rng: Rng(case_seed) });
+        match r {
+            Ok(Outcome::Passed) => cases += 1,
+            Ok(Outcome::Discarded) => discarded += 1,
+            Err(p) => {
+                eprintln!("kani-shim: {name}: counterexample (sampled), seed {seed:#x}, case {i}");
+                panic::resume_unwind(p);
+            }
+        }
+    }
+    Report { kind: "sampled", cases, discarded, covers: (0, 0), seed: Some(seed) }
+}

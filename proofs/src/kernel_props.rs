@@ -1,0 +1,279 @@
+//! Whole-kernel properties: one or a few ticks of the real `Kernel::tick`
+//! from states reached through the public API (see `setup`).
+
+use crate::numeric::any_mostly_in;
+use crate::setup::{here, operational, still, target, Sym, COUNTS, PROOF_CONFIG};
+use kernel::config::AXES;
+use kernel::{
+    EncoderSample, Event, Fx, HardwareFault, Kernel, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput,
+};
+
+/// Sensors that may differ from the stationary arm in any way: a count may
+/// be lost, jump, or move a little; switches and hardware faults are free.
+fn any_sense() -> Sense {
+    // Half of the samples are the clean stationary arm; symbolically this is
+    // still every sensor combination.
+    if kani::any() {
+        return still(0);
+    }
+    let mut s = still(kani::any());
+    for i in 0..AXES {
+        let mode: u8 = kani::any();
+        s.encoders[i] = match mode % 4 {
+            0 => EncoderSample::Lost,
+            1 => EncoderSample::Count(kani::any()),
+            2 => {
+                let d: i8 = kani::any();
+                EncoderSample::Count((i32::from(COUNTS[i]) + i32::from(d)).rem_euclid(4096) as u16)
+            }
+            _ => EncoderSample::Count(COUNTS[i]),
+        };
+    }
+    if kani::any::<u8>() == 0 {
+        s.hardware_fault = Some(HardwareFault::TickOverrun);
+    }
+    s
+}
+
+fn any_target<S: Sym>() -> kernel::MotionTarget<S> {
+    let mut t = target([S::ZERO; AXES]);
+    for i in 0..AXES {
+        let j = &PROOF_CONFIG.joints[i];
+        t.position[i] = any_mostly_in(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
+        let v = S::from_f32(j.max_velocity);
+        t.velocity[i] = any_mostly_in(v.neg(), v);
+    }
+    t
+}
+
+fn all_zero<S: Scalar>(o: &TickOutput<S>) -> bool {
+    o.act.velocity.iter().all(|v| *v == S::ZERO) && o.act.step_rate.iter().all(|r| *r == 0)
+}
+
+/// The per-tick invariants every harness checks on every output.
+fn invariants<S: Scalar>(o: &TickOutput<S>) {
+    for i in 0..AXES {
+        let j = &PROOF_CONFIG.joints[i];
+        let v = o.act.velocity[i];
+        // SR-2: finite and within the joint's limit.
+        assert!(v.is_finite() && v.abs() <= S::from_f32(j.max_velocity));
+        // SR-9: a speed estimate above the runaway threshold is a fault.
+        if o.status.velocity[i].abs() > S::from_f32(j.runaway_velocity) {
+            assert!(o.status.state == State::Fault);
+        }
+    }
+    // SR-1, SR-4, SR-5: no output in the safe states, including the tick a
+    // fault is raised in.
+    if matches!(o.status.state, State::Boot | State::Unhomed | State::SoftEstop | State::Fault)
+        || o.events.iter().any(|e| matches!(e, Event::Fault(_)))
+    {
+        assert!(all_zero(o));
+    }
+    // SR-5: a fault always carries its reason.
+    assert!((o.status.state == State::Fault) == o.status.fault.is_some());
+}
+
+/// SR-2, SR-3, SR-4, SR-9, SR-11, SR-21: one tick from Operational with any
+/// target and any sensors: outputs bounded; a fault zeroes every axis.
+fn operational_tick<S: Sym>() {
+    let (mut k, _) = operational::<S>();
+    let req = if kani::any() { Some(Request::Motion(any_target::<S>())) } else { None };
+    let o = k.tick(&any_sense(), req);
+    kani::cover!(o.status.state == State::Fault, "a fault");
+    kani::cover!(o.status.state == State::Operational, "still operational");
+    invariants(&o);
+    // A second tick: the fault latched, the first reason kept (SR-5).
+    let first = o.status.fault;
+    let o2 = k.tick(&any_sense(), None);
+    invariants(&o2);
+    if let Some(f) = first {
+        assert!(o2.status.fault == Some(f));
+    }
+}
+
+#[kani::proof]
+#[kani::unwind(41)] // setup homing loop (40 ticks); kernel loops are 6 axes
+fn operational_tick_is_safe_f32() {
+    operational_tick::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn operational_tick_is_safe_fx() {
+    operational_tick::<Fx>();
+}
+
+/// SR-1, SR-13, SR-15, SR-16: from power-on, any short sequence of requests
+/// and sensors: nothing moves unhomed; motion is refused outside
+/// Operational; in homing, only axes whose dependencies are homed move.
+fn from_power_on<S: Sym>() {
+    let (mut k, auth) = Kernel::<S>::new(&PROOF_CONFIG);
+    // First tick: any valid readings (nothing moves at power-on).
+    let mut first = still(kani::any());
+    for e in first.encoders.iter_mut() {
+        *e = EncoderSample::Count(kani::any::<u16>() & 0x0fff);
+    }
+    let o = k.tick(&first, None);
+    invariants(&o);
+    assert!(all_zero(&o));
+    // Six more ticks (bound: the loop below), each with any request.
+    for _ in 0..6 {
+        let before = k.state();
+        let req = match kani::any::<u8>() % 5 {
+            0 => Some(Request::Home),
+            1 => Some(Request::HomeJoint(kani::any())),
+            2 => Some(Request::Enable(auth.enable())),
+            3 => Some(Request::Motion(any_target::<S>())),
+            _ => None,
+        };
+        let motion = matches!(req, Some(Request::Motion(_)));
+        let o = k.tick(&first, req);
+        invariants(&o);
+        if motion && before != State::Operational {
+            assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. })));
+        }
+        if o.status.state == State::Homing {
+            let phases = k.homing_phases();
+            for i in 0..AXES {
+                if phases[i].is_moving() {
+                    let needs = Kernel::<S>::dependencies(i);
+                    assert!(o.status.homed & needs == needs);
+                } else {
+                    assert!(o.act.velocity[i] == S::ZERO);
+                }
+            }
+        }
+        kani::cover!(o.status.state == State::Homing, "homing reached");
+        // Switch inputs change freely between ticks.
+        first.limits = kani::any();
+    }
+}
+
+#[kani::proof]
+#[kani::unwind(8)] // six ticks in this harness, six axes in the kernel
+fn nothing_moves_unless_homed_and_homing_order_holds_f32() {
+    from_power_on::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(8)]
+fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
+    from_power_on::<Fx>();
+}
+
+/// SR-7, SR-8: after one accepted target, silence: the timeout starts the
+/// ramp, speeds never increase nor reverse, every axis reaches exactly zero
+/// within the ramp, and the stop latches.
+fn soft_stop<S: Sym>() {
+    let (mut k, _) = operational::<S>();
+    let p = here(&mut k);
+    // No timeout before the first command (SR-8): the setup ran many ticks.
+    assert!(k.state() == State::Operational);
+    let mut t = any_target::<S>();
+    // Keep targets valid so the command is accepted and the arm moves.
+    for i in 0..AXES {
+        let j = &PROOF_CONFIG.joints[i];
+        t.position[i] = t.position[i].clamp_between(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
+        t.velocity[i] = S::ZERO;
+        if !t.position[i].is_finite() {
+            t.position[i] = p[i];
+        }
+    }
+    let o = k.tick(&still(0), Some(Request::Motion(t)));
+    assert!(o.status.timeout_armed);
+    let mut prev = o.act.velocity;
+    kani::cover!(prev.iter().any(|v| *v != S::ZERO), "moving when the commands stop");
+    // Timeout 3 ticks + ramp 4 ticks + margin: 12 ticks (loop bound).
+    let mut stopped_at = None;
+    for n in 0..12u32 {
+        let o = k.tick(&still(0), None);
+        invariants(&o);
+        if matches!(o.status.state, State::Stopping | State::SoftEstop) {
+            for i in 0..AXES {
+                let (a, b) = (o.act.velocity[i], prev[i]);
+                assert!(a.abs() <= b.abs());
+                assert!(a == S::ZERO || ((a > S::ZERO) == (b > S::ZERO)));
+            }
+        }
+        if o.status.state == State::SoftEstop && stopped_at.is_none() {
+            stopped_at = Some(n);
+            assert!(all_zero(&o));
+        }
+        prev = o.act.velocity;
+    }
+    // 3 ticks of timeout + 4 of ramp, counted from the command's tick.
+    assert!(matches!(stopped_at, Some(n) if n <= 8));
+    assert!(k.state() == State::SoftEstop);
+    // Latched: motion refused.
+    let o = k.tick(&still(0), Some(Request::Motion(target(p))));
+    assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Latched, .. })));
+}
+
+#[kani::proof]
+#[kani::unwind(41)] // setup homing loop; 12 ticks here
+fn soft_stop_ramps_monotonically_to_zero_and_latches_f32() {
+    soft_stop::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn soft_stop_ramps_monotonically_to_zero_and_latches_fx() {
+    soft_stop::<Fx>();
+}
+
+/// SR-5, SR-6: a limit fault; enable with any sensors is refused while any
+/// cause is present, and when accepted the set-points equal the measured
+/// positions (no jump) and the timeout is disarmed.
+fn enable<S: Sym>() {
+    let (mut k, auth) = operational::<S>();
+    let switch: u8 = kani::any::<u8>() % AXES as u8;
+    let o = k.tick(&still(1 << switch), None);
+    assert!(o.status.state == State::Fault);
+    let sense = any_sense();
+    let cause = sense.limits & 0x3f != 0
+        || sense.hardware_fault.is_some()
+        || sense.encoders.iter().any(|e| !matches!(e, EncoderSample::Count(c) if *c < 4096));
+    let o = k.tick(&sense, Some(Request::Enable(auth.enable())));
+    kani::cover!(o.status.state == State::Fault, "refused");
+    kani::cover!(o.status.state != State::Fault, "accepted");
+    invariants(&o);
+    if cause {
+        assert!(o.status.state == State::Fault);
+    }
+    if o.events.iter().any(|e| matches!(e, Event::Enabled(_))) {
+        assert!(!o.status.timeout_armed);
+        for i in 0..AXES {
+            assert!(o.status.setpoint[i] == o.status.position[i]);
+        }
+    }
+}
+
+#[kani::proof]
+#[kani::unwind(41)]
+fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
+    enable::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {
+    enable::<Fx>();
+}
+
+/// SR-14: homing can be repeated: a second `<HOME>` from Operational runs
+/// and completes again.
+fn rehome<S: Sym>() {
+    let (mut k, _) = operational::<S>();
+    let o = k.tick(&still(0), Some(Request::Home));
+    assert!(o.status.state == State::Homing);
+    crate::setup::run_homing(&mut k);
+    assert!(k.state() == State::Operational);
+    kani::cover!(true);
+}
+
+#[kani::proof]
+#[kani::unwind(41)]
+fn homing_is_repeatable_f32() {
+    rehome::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn homing_is_repeatable_fx() {
+    rehome::<Fx>();
+}

@@ -1,0 +1,222 @@
+//! Per-axis numeric functions: saturation, control law, unwrapping,
+//! observer, interpolator, target validation.
+
+use crate::setup::{operational, target, Sym, PROOF_CONFIG};
+use kernel::config::AXES;
+use kernel::control::control_law;
+use kernel::interp::Interpolator;
+use kernel::observer::{wrap_delta, AlphaBeta, ObserverGains, Unwrapper};
+use kernel::Fx;
+
+/// A joint index, with a cover so the assumption is not vacuous.
+fn any_joint() -> usize {
+    let j: u8 = kani::any::<u8>() % AXES as u8;
+    kani::cover!(j == AXES as u8 - 1, "last joint reachable");
+    usize::from(j)
+}
+
+/// Any value; for sampling, half of the draws are folded into `[lo, hi]`
+/// so that in-range cases are common. Symbolically it is still any value.
+pub(crate) fn any_mostly_in<S: Sym>(lo: S, hi: S) -> S {
+    let v = S::any();
+    if kani::any() && v.is_finite() {
+        v.clamp_between(lo, hi)
+    } else {
+        v
+    }
+}
+
+/// Any finite value in `[lo, hi]` (every such value is reachable: finite
+/// values inside are kept, those outside are clamped to the ends).
+pub(crate) fn any_in<S: Sym>(lo: S, hi: S) -> S {
+    let v = S::any();
+    kani::assume(v.is_finite());
+    v.clamp_between(lo, hi)
+}
+
+/// SR-2, SR-3: saturation is finite, bounded, the identity inside the
+/// bound, and zero for non-finite inputs.
+fn saturation<S: Sym>() {
+    let x = S::any();
+    let limit = S::any();
+    kani::assume(limit.is_finite() && limit >= S::ZERO);
+    kani::cover!(limit > S::ZERO, "positive limit");
+    let y = x.saturate(limit);
+    assert!(y.is_finite());
+    assert!(y.abs() <= limit);
+    if !x.is_finite() {
+        assert!(y == S::ZERO);
+    } else if x >= limit.neg() && x <= limit {
+        assert!(y == x);
+    } else {
+        assert!(y.abs() == limit);
+    }
+}
+
+#[kani::proof]
+fn saturation_is_finite_and_bounded_f32() {
+    kani::cover!(true);
+    saturation::<f32>();
+}
+#[kani::proof]
+fn saturation_is_finite_and_bounded_fx() {
+    saturation::<Fx>();
+}
+
+/// SR-2, SR-3: the control law's output is finite and within the joint's
+/// velocity limit for every input; non-finite anything gives zero, not ok.
+fn control<S: Sym>() {
+    let j = any_joint();
+    let cfg = &PROOF_CONFIG.joints[j];
+    let (sp, ff, x) = (S::any(), S::any(), S::any());
+    let vmax = S::from_f32(cfg.max_velocity);
+    let (v, ok) = control_law(sp, ff, x, S::from_f32(cfg.kp), vmax, S::from_f32(PROOF_CONFIG.deadband));
+    assert!(v.is_finite());
+    assert!(v.abs() <= vmax);
+    if !(sp.is_finite() && ff.is_finite() && x.is_finite()) {
+        assert!(!ok);
+    }
+    if !ok {
+        assert!(v == S::ZERO);
+    }
+}
+
+#[kani::proof]
+fn control_law_is_bounded_f32() {
+    control::<f32>();
+}
+#[kani::proof]
+fn control_law_is_bounded_fx() {
+    control::<Fx>();
+}
+
+/// SR-12: the unwrapped count moves by exactly the shortest signed
+/// difference, so consecutive readings are continuous modulo 4096.
+#[kani::proof]
+fn unwrapping_is_exact_and_continuous() {
+    let first: u16 = kani::any();
+    let next: u16 = kani::any();
+    let mut u = Unwrapper::new(first);
+    let before = u.total();
+    let d = wrap_delta(first & 0xfff, next);
+    kani::cover!(d <= -2000, "nearly half a turn backward");
+    kani::cover!(d >= 2000, "nearly half a turn forward");
+    assert!((-2048..=2047).contains(&d));
+    u.update(next);
+    assert!(u.total() == before + d);
+    assert!((i32::from(first & 0xfff) + d).rem_euclid(4096) == i32::from(next & 0xfff));
+    // Starting point is the reading itself (SR-1).
+    assert!(before == i32::from(first & 0xfff));
+}
+
+/// The observer's corrected position lies between its prediction and the
+/// measurement (0 < alpha < 1): a step never amplifies a residual.
+fn observer<S: Sym>() {
+    let g = ObserverGains {
+        alpha: S::from_f32(PROOF_CONFIG.alpha),
+        beta_hz: S::from_f32(PROOF_CONFIG.beta * PROOF_CONFIG.tick_hz as f32),
+        dt: S::from_f32(1.0 / PROOF_CONFIG.tick_hz as f32),
+    };
+    let (b32, b64) = (S::from_f32(32.0), S::from_f32(64.0));
+    // Inside the kernel's plausibility bounds (|x| < 32 rad, |v| < 64 rad/s);
+    // beyond them the kernel faults instead.
+    let (x, v, z) = (any_in(b32.neg(), b32), any_in(b64.neg(), b64), any_in(b32.neg(), b32));
+    kani::cover!(z != x, "non-zero residual");
+    let mut o = AlphaBeta { x, v };
+    let xp = x.plus(v.times(g.dt));
+    o.step(z, &g);
+    assert!(o.x.is_finite() && o.v.is_finite());
+    let lo = xp.min(z);
+    let hi = xp.max(z);
+    // Fixed point is exact to one LSB here; f32 to a few ulps of 32.
+    let slack = S::from_f32(1e-5);
+    assert!(o.x >= lo.minus(slack) && o.x <= hi.plus(slack));
+}
+
+#[kani::proof]
+fn observer_correction_is_between_prediction_and_measurement_f32() {
+    observer::<f32>();
+}
+#[kani::proof]
+fn observer_correction_is_between_prediction_and_measurement_fx() {
+    observer::<Fx>();
+}
+
+/// SR-18: the interpolator never leaves the segment, never moves more than
+/// one tick's speed limit (plus one rounding unit), and arrives exactly.
+fn interpolator<S: Sym>() {
+    let j = any_joint();
+    let max_step = S::from_f32(PROOF_CONFIG.joints[j].max_velocity / PROOF_CONFIG.tick_hz as f32);
+    let lim = S::from_f32(16.0);
+    let (from, to) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
+    kani::cover!(from.abs() == lim, "segment from the edge of the range");
+    let n: u8 = 1 + kani::any::<u8>() % 64;
+    kani::cover!(n == 64, "longest segment");
+    kani::cover!(from != to, "a real move");
+    let mut it = Interpolator::hold(from);
+    it.retarget(to, S::from_f32(1.0 / f32::from(n)), max_step);
+    let (lo, hi) = (from.min(to), from.max(to));
+    // One f32 rounding unit at |sp| <= 16 is 1.9e-6.
+    let slack = S::from_f32(2e-6);
+    // Bounded by 2 * max(n, |d| / max_step) + 2 <= 2 * 10_667 + 2 here
+    // (|d| <= 32 rad at 3 mrad per tick); the shim runs the loop, Kani needs
+    // an unwind bound this large only for this harness.
+    let mut prev = from;
+    for _ in 0..21_400 {
+        let (sp, moved) = it.advance();
+        assert!(sp >= lo && sp <= hi, "overshoot");
+        assert!(moved.abs() <= max_step.plus(slack));
+        assert!(sp.minus(prev) == moved);
+        prev = sp;
+        if sp == to {
+            return;
+        }
+    }
+    panic!("interpolator did not arrive");
+}
+
+#[kani::proof]
+#[kani::unwind(21401)]
+fn interpolator_stays_in_segment_and_arrives_f32() {
+    interpolator::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(21401)]
+fn interpolator_stays_in_segment_and_arrives_fx() {
+    interpolator::<Fx>();
+}
+
+/// SR-17: a target the kernel accepts is finite, inside every joint's
+/// limits, with every velocity within its limit.
+fn validation<S: Sym>() {
+    let (k, _) = operational::<S>();
+    let mut t = target([S::ZERO; AXES]);
+    for i in 0..AXES {
+        let j = &PROOF_CONFIG.joints[i];
+        t.position[i] = any_mostly_in(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
+        let v = S::from_f32(j.max_velocity);
+        t.velocity[i] = any_mostly_in(v.neg(), v);
+    }
+    let ok = k.validate(&t).is_ok();
+    kani::cover!(ok, "some target accepted");
+    kani::cover!(!ok, "some target rejected");
+    if ok {
+        for i in 0..AXES {
+            let j = &PROOF_CONFIG.joints[i];
+            assert!(t.position[i].is_finite() && t.velocity[i].is_finite());
+            assert!(t.position[i] >= S::from_f32(j.limit_min) && t.position[i] <= S::from_f32(j.limit_max));
+            assert!(t.velocity[i].abs() <= S::from_f32(j.max_velocity));
+        }
+    }
+}
+
+#[kani::proof]
+#[kani::unwind(41)] // setup: homing loop of at most 40 ticks
+fn accepted_targets_are_within_limits_f32() {
+    validation::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn accepted_targets_are_within_limits_fx() {
+    validation::<Fx>();
+}

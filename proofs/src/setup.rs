@@ -1,0 +1,109 @@
+//! Reaching kernel states through the public API only.
+//!
+//! The arm is stationary: every encoder reads a constant count, so the
+//! observer sits exactly on its measurement and the harness controls the
+//! limit switches. Homing then completes in a few ticks per group with
+//! [`PROOF_CONFIG`], which is `PAROL6` with a zero back-off distance and
+//! short timeouts (a harness cannot run the real configuration's thousands
+//! of ticks). Only those values differ; every code path is the kernel's own.
+
+use kernel::config::{ArmConfig, AXES, PAROL6};
+use kernel::homing::Phase;
+use kernel::{Authority, EncoderSample, Kernel, MotionTarget, Request, Scalar, Sense, State};
+
+/// `PAROL6` with zero homing back-off, and timeouts short enough for a
+/// harness: command timeout 3 ms, soft-stop ramp 4 ms, homing 40 ms per axis.
+pub const PROOF_CONFIG: ArmConfig = {
+    let mut c = PAROL6;
+    let mut i = 0;
+    while i < AXES {
+        c.joints[i].homing.backoff = 0.0;
+        c.joints[i].homing.timeout_ms = 40;
+        i += 1;
+    }
+    c.command_timeout_ms = 3;
+    c.soft_stop_ms = 4;
+    c
+};
+
+/// Counts the stationary encoders read (mid-range, away from the wrap).
+pub const COUNTS: [u16; AXES] = [1000, 2000, 3000, 500, 1500, 2500];
+
+/// Sensors of a stationary arm with the given switches pressed.
+pub fn still(limits: u8) -> Sense {
+    Sense { encoders: COUNTS.map(EncoderSample::Count), limits, hardware_fault: None }
+}
+
+/// A scalar the harnesses can draw symbolically.
+pub trait Sym: Scalar {
+    /// Any bit pattern.
+    fn any() -> Self;
+}
+
+impl Sym for f32 {
+    fn any() -> Self {
+        kani::any()
+    }
+}
+
+impl Sym for kernel::Fx {
+    fn any() -> Self {
+        kernel::Fx::from_bits(kani::any())
+    }
+}
+
+/// A booted kernel (state Unhomed) and its authority.
+pub fn unhomed<S: Scalar>() -> (Kernel<S>, Authority) {
+    let (mut k, a) = Kernel::new(&PROOF_CONFIG);
+    k.tick(&still(0), None);
+    (k, a)
+}
+
+/// Runs homing to completion by pressing the switch of every seeking axis.
+/// At most 40 ticks (three groups of at most 7 ticks each, plus margin).
+pub fn run_homing<S: Scalar>(k: &mut Kernel<S>) {
+    for _ in 0..40 {
+        if k.state() != State::Homing {
+            return;
+        }
+        let mut limits = 0u8;
+        for (i, p) in k.homing_phases().iter().enumerate() {
+            if matches!(p, Phase::FastSeek | Phase::SlowSeek) {
+                limits |= 1 << i;
+            }
+        }
+        k.tick(&still(limits), None);
+    }
+}
+
+/// A homed, operational kernel with the timeout not yet armed.
+pub fn operational<S: Scalar>() -> (Kernel<S>, Authority) {
+    let (mut k, a) = unhomed::<S>();
+    k.tick(&still(0), Some(Request::Home));
+    run_homing(&mut k);
+    (k, a)
+}
+
+/// The measured positions of an operational kernel (a valid target).
+pub fn here<S: Scalar>(k: &mut Kernel<S>) -> [S; AXES] {
+    k.tick(&still(0), None).status.position
+}
+
+/// A target at `p` with zero velocities.
+pub fn target<S: Scalar>(p: [S; AXES]) -> MotionTarget<S> {
+    MotionTarget { position: p, velocity: [S::ZERO; AXES] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn setup_reaches_operational_in_both_variants() {
+        let (k, _) = operational::<f32>();
+        assert_eq!(k.state(), State::Operational);
+        assert_eq!(k.homed(), 0b11_1111);
+        let (k, _) = operational::<kernel::Fx>();
+        assert_eq!(k.state(), State::Operational);
+    }
+}
