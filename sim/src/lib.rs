@@ -1,0 +1,19 @@
+//! The PAROL6 firmware's kernel and protocol against a simulated arm.
+//!
+//! [`root::Root`] wires the `kernel` and `protocol` crates exactly as the
+//! firmware's composition root does, on a [`plant::Plant`] whose encoders
+//! produce real MT6816 PWM frames decoded with `hal-imxrt`'s pure decoder.
+//! [`runner`] runs [`scenario`]s against it and checks the safety
+//! requirements at every tick; [`live`] serves the wire protocol on a
+//! pseudo-terminal (and optionally TCP) in real time.
+
+pub mod client;
+pub mod encoder;
+pub mod live;
+pub mod plant;
+pub mod report;
+pub mod rng;
+pub mod root;
+pub mod runner;
+pub mod scenario;
+pub mod svg;

@@ -1,0 +1,630 @@
+//! Scenarios: a line-based script format (documented in `sim/README.md`)
+//! and the built-in set, which is written in the same format
+//! (`sim/scenarios/*.scn`).
+
+use std::fmt;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use kernel::config::AXES;
+
+use crate::encoder::{DecodeMode, Line};
+
+/// Something that marks a point in time once it happens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Anchor {
+    /// Homing status became H2 (complete).
+    Homed,
+    /// The kernel entered SOFT_ESTOP (ramp finished).
+    Estop,
+    /// The kernel entered FAULT.
+    Fault,
+    /// A latched stop or fault was cleared.
+    Enabled,
+}
+
+impl Anchor {
+    /// All anchors.
+    pub const ALL: [Anchor; 4] = [Anchor::Homed, Anchor::Estop, Anchor::Fault, Anchor::Enabled];
+    /// Name in scripts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Anchor::Homed => "homed",
+            Anchor::Estop => "estop",
+            Anchor::Fault => "fault",
+            Anchor::Enabled => "enabled",
+        }
+    }
+    /// Index into per-anchor tables.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// A time: milliseconds since power-on, or since the `n`-th occurrence of an
+/// anchor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct When {
+    /// The anchor and its occurrence (1 = first), if any.
+    pub anchor: Option<(Anchor, u32)>,
+    /// Offset in ms.
+    pub offset_ms: u64,
+}
+
+impl When {
+    /// Resolves against the occurrence times recorded so far.
+    pub fn resolve(&self, occurrences: &[Vec<u64>; 4]) -> Option<u64> {
+        match self.anchor {
+            None => Some(self.offset_ms),
+            Some((a, n)) => occurrences[a.index()].get(n.saturating_sub(1) as usize).map(|t| t + self.offset_ms),
+        }
+    }
+}
+
+impl fmt::Display for When {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.anchor {
+            None => write!(f, "{}ms", self.offset_ms),
+            Some((a, 1)) => write!(f, "{}+{}ms", a.name(), self.offset_ms),
+            Some((a, n)) => write!(f, "{}#{}+{}ms", a.name(), n, self.offset_ms),
+        }
+    }
+}
+
+/// Which host program a stream imitates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Client {
+    /// The ROS 2 driver: interleaved, `%.3f`, SEQ never reset.
+    Driver,
+    /// The configurator: grouped, `:.4f`.
+    Configurator,
+}
+
+/// The motion a stream sends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// From the pose at the start, `p = p0 + a (1 - cos(2 pi t / T)) / 2`.
+    Cosine {
+        /// Period (ms).
+        period_ms: u64,
+        /// Amplitude per joint (rad).
+        amp: [f64; AXES],
+    },
+    /// Jog one joint (index 0..=5) at a constant velocity, then one final
+    /// command with velocity 0.
+    Jog {
+        /// Joint index.
+        joint: usize,
+        /// Velocity (rad/s).
+        vel: f64,
+    },
+}
+
+/// One scripted action.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Bytes to the firmware.
+    Send(Vec<u8>),
+    /// A periodic command stream.
+    Stream {
+        /// Who sends.
+        client: Client,
+        /// Rate (Hz).
+        rate_hz: f64,
+        /// Duration (ms).
+        duration_ms: u64,
+        /// What it sends.
+        motion: Motion,
+    },
+    /// One motion frame to a pose with zero velocities.
+    Goto {
+        /// Who sends.
+        client: Client,
+        /// The pose (rad).
+        pose: [f64; AXES],
+    },
+    /// Unplug (`false`) or plug (`true`) the cable: while unplugged no byte
+    /// reaches the firmware.
+    Cable(bool),
+    /// Add `offset` counts to `frames` frames of encoder `joint`.
+    Glitch {
+        /// Joint index.
+        joint: usize,
+        /// Offset (counts).
+        offset: i32,
+        /// Frames affected.
+        frames: u32,
+    },
+    /// Set an encoder line's state.
+    Encoder(usize, Line),
+    /// Force a switch closed (`Some(true)`), open, or back to its position.
+    Switch(usize, Option<bool>),
+    /// Uncommanded joint velocity (rad/s).
+    Runaway(usize, f64),
+    /// Fraction of steps lost.
+    LostSteps(usize, f64),
+    /// Encoder noise (sigma, counts).
+    Noise(f64),
+}
+
+/// Fault kinds as written in scripts.
+pub const FAULT_KINDS: [&str; 9] = [
+    "encoder",
+    "encoder-not-ready",
+    "runaway",
+    "limit-switch",
+    "position-limit",
+    "numeric",
+    "homing-timeout",
+    "hardware",
+    "any",
+];
+
+/// One expectation, checked at the end of the run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expect {
+    /// No fault at all.
+    NoFault,
+    /// A fault of this kind (and joint index, if given) was raised.
+    Fault(String, Option<usize>),
+    /// The state at a time (name as on the wire: `OPERATIONAL`, `SOFT_ESTOP`...).
+    State(When, String),
+    /// Homing completed (H2) by this time.
+    HomedBy(When),
+    /// Every stop after the last command of a burst reached standstill within this many ms.
+    StopWithin(u64),
+    /// Tracking error RMS below this (mrad), every joint.
+    TrackingRmsBelow(f64),
+    /// Tracking error max below this (mrad), every joint.
+    TrackingMaxBelow(f64),
+    /// Goal error at the end of the last motion burst below this (rad).
+    GoalWithin(f64),
+    /// At least this many frames/requests rejected.
+    RejectedAtLeast(u64),
+    /// Some line sent contains this text.
+    Line(String),
+    /// No line sent contains this text.
+    NoLine(String),
+    /// Some axis is commanded to move after this time.
+    MovingAfter(When),
+}
+
+impl fmt::Display for Expect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Expect::NoFault => write!(f, "no fault"),
+            Expect::Fault(k, None) => write!(f, "fault {k}"),
+            Expect::Fault(k, Some(j)) => write!(f, "fault {k} J{}", j + 1),
+            Expect::State(w, s) => write!(f, "state {s} at {w}"),
+            Expect::HomedBy(w) => write!(f, "homed (H2) by {w}"),
+            Expect::StopWithin(ms) => write!(f, "standstill within {ms} ms of the last command"),
+            Expect::TrackingRmsBelow(m) => write!(f, "tracking RMS < {m} mrad"),
+            Expect::TrackingMaxBelow(m) => write!(f, "tracking max < {m} mrad"),
+            Expect::GoalWithin(r) => write!(f, "goal error < {r} rad"),
+            Expect::RejectedAtLeast(n) => write!(f, "at least {n} rejections"),
+            Expect::Line(t) => write!(f, "a line contains {t:?}"),
+            Expect::NoLine(t) => write!(f, "no line contains {t:?}"),
+            Expect::MovingAfter(w) => write!(f, "moving after {w}"),
+        }
+    }
+}
+
+/// A whole scenario.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scenario {
+    /// Short name (file stem for reports).
+    pub name: String,
+    /// What it shows.
+    pub description: String,
+    /// When the run ends.
+    pub end: When,
+    /// Hard cap on simulated time (ms), for anchored ends that never come.
+    pub max_ms: u64,
+    /// Expectations failing here do not fail the run (safety still does).
+    pub informational: bool,
+    /// Plant settings.
+    pub pose: Option<[f64; AXES]>,
+    /// Encoder noise (sigma, counts).
+    pub noise: Option<f64>,
+    /// Encoder decode mode.
+    pub decode: Option<DecodeMode>,
+    /// Switch angles overriding the configuration's.
+    pub switch_at: Vec<(usize, f64)>,
+    /// Step-rate limit (steps/s).
+    pub max_step_rate: Option<f64>,
+    /// Random seed.
+    pub seed: u64,
+    /// Timed actions.
+    pub actions: Vec<(When, Action)>,
+    /// Expectations.
+    pub expects: Vec<Expect>,
+}
+
+impl Scenario {
+    /// An empty scenario.
+    pub fn new(name: &str) -> Self {
+        Scenario {
+            name: name.to_string(),
+            description: String::new(),
+            end: When { anchor: None, offset_ms: 10_000 },
+            max_ms: 120_000,
+            informational: false,
+            pose: None,
+            noise: None,
+            decode: None,
+            switch_at: Vec::new(),
+            max_step_rate: None,
+            seed: 1,
+            actions: Vec::new(),
+            expects: Vec::new(),
+        }
+    }
+
+    /// Reads a scenario file.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading scenario {}", path.display()))?;
+        let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scenario");
+        Scenario::parse(stem, &text).with_context(|| format!("in scenario file {}", path.display()))
+    }
+
+    /// Parses the script format; errors name the line.
+    pub fn parse(default_name: &str, text: &str) -> Result<Self> {
+        let mut s = Scenario::new(default_name);
+        for (n, raw) in text.lines().enumerate() {
+            let line = raw.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            parse_line(&mut s, line).with_context(|| format!("line {}: `{}`", n + 1, line))?;
+        }
+        Ok(s)
+    }
+}
+
+fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
+    let (kw, rest) = split1(line);
+    let words: Vec<&str> = rest.split_whitespace().collect();
+    match kw {
+        "name" => s.name = rest.trim().to_string(),
+        "description" => {
+            if !s.description.is_empty() {
+                s.description.push(' ');
+            }
+            s.description.push_str(rest.trim());
+        }
+        "end" => s.end = parse_when(one(&words)?)?,
+        "max" => s.max_ms = parse_ms(one(&words)?)?,
+        "informational" => s.informational = true,
+        "pose" => s.pose = Some(six(&words)?),
+        "noise" => s.noise = Some(num(one(&words)?)?),
+        "seed" => s.seed = one(&words)?.parse().context("seed must be an integer")?,
+        "decode" => s.decode = Some(DecodeMode::parse(one(&words)?).context("decode must be `window` or `frame`")?),
+        "switch-at" => {
+            let [j, a] = two(&words)?;
+            s.switch_at.push((joint(j)?, num(a)?));
+        }
+        "max-step-rate" => s.max_step_rate = Some(num(one(&words)?)?),
+        "at" => {
+            let (when, action) = split1(rest);
+            let when = parse_when(when)?;
+            let action = parse_action(action)?;
+            s.actions.push((when, action));
+        }
+        "expect" => s.expects.push(parse_expect(rest)?),
+        other => bail!(
+            "unknown keyword `{other}` (expected name, description, end, max, informational, pose, noise, seed, \
+             decode, switch-at, max-step-rate, at, expect)"
+        ),
+    }
+    Ok(())
+}
+
+fn parse_action(text: &str) -> Result<Action> {
+    let (kw, rest) = split1(text);
+    let w: Vec<&str> = rest.split_whitespace().collect();
+    Ok(match kw {
+        "send" => {
+            let mut b = unescape(rest.trim())?;
+            b.push(b'\n');
+            Action::Send(b)
+        }
+        "raw" => Action::Send(unescape(rest.trim())?),
+        "stream" => {
+            // stream CLIENT RATE_HZ DURATION cosine PERIOD A1..A6
+            // stream CLIENT RATE_HZ DURATION jog J VEL
+            if w.len() < 4 {
+                bail!("usage: stream driver|config RATE_HZ DURATION (cosine PERIOD A1..A6 | jog J VEL)");
+            }
+            let client = parse_client(w[0])?;
+            let rate_hz = num(w[1])?;
+            if !(rate_hz > 0.0 && rate_hz <= 1000.0) {
+                bail!("stream rate must be in (0, 1000] Hz");
+            }
+            let duration_ms = parse_ms(w[2])?;
+            let motion = match w[3] {
+                "cosine" => {
+                    if w.len() != 11 {
+                        bail!("usage: ... cosine PERIOD A1 A2 A3 A4 A5 A6");
+                    }
+                    Motion::Cosine { period_ms: parse_ms(w[4])?.max(1), amp: six(&w[5..])? }
+                }
+                "jog" => {
+                    if w.len() != 6 {
+                        bail!("usage: ... jog J VEL");
+                    }
+                    Motion::Jog { joint: joint(w[4])?, vel: num(w[5])? }
+                }
+                m => bail!("unknown motion `{m}` (cosine or jog)"),
+            };
+            Action::Stream { client, rate_hz, duration_ms, motion }
+        }
+        "goto" => {
+            if w.len() != 7 {
+                bail!("usage: goto driver|config P1 P2 P3 P4 P5 P6");
+            }
+            Action::Goto { client: parse_client(w[0])?, pose: six(&w[1..])? }
+        }
+        "cable" => match one(&w)? {
+            "pull" => Action::Cable(false),
+            "plug" => Action::Cable(true),
+            o => bail!("cable takes `pull` or `plug`, not `{o}`"),
+        },
+        "glitch" => {
+            if !(w.len() == 2 || w.len() == 3) {
+                bail!("usage: glitch J OFFSET_COUNTS [FRAMES]");
+            }
+            let frames = if w.len() == 3 { w[2].parse().context("frames must be an integer")? } else { 1 };
+            Action::Glitch { joint: joint(w[0])?, offset: w[1].parse().context("offset must be an integer")?, frames }
+        }
+        "encoder" => {
+            let [j, st] = two(&w)?;
+            let line = match st {
+                "ok" => Line::Ok,
+                "lost" | "low" => Line::StuckLow,
+                "high" => Line::StuckHigh,
+                o => bail!("encoder state must be ok, lost (stuck low) or high, not `{o}`"),
+            };
+            Action::Encoder(joint(j)?, line)
+        }
+        "switch" => {
+            let [j, st] = two(&w)?;
+            let f = match st {
+                "press" => Some(true),
+                "release" => Some(false),
+                "auto" => None,
+                o => bail!("switch state must be press, release or auto, not `{o}`"),
+            };
+            Action::Switch(joint(j)?, f)
+        }
+        "runaway" => {
+            let [j, v] = two(&w)?;
+            Action::Runaway(joint(j)?, num(v)?)
+        }
+        "lost-steps" => {
+            let [j, f] = two(&w)?;
+            let f = num(f)?;
+            if !(0.0..=1.0).contains(&f) {
+                bail!("lost-steps fraction must be within 0..=1");
+            }
+            Action::LostSteps(joint(j)?, f)
+        }
+        "noise" => Action::Noise(num(one(&w)?)?),
+        o => bail!(
+            "unknown action `{o}` (send, raw, stream, goto, cable, glitch, encoder, switch, runaway, lost-steps, noise)"
+        ),
+    })
+}
+
+fn parse_expect(text: &str) -> Result<Expect> {
+    let (kw, rest) = split1(text);
+    let w: Vec<&str> = rest.split_whitespace().collect();
+    Ok(match kw {
+        "no-fault" => Expect::NoFault,
+        "fault" => {
+            if w.is_empty() || w.len() > 2 {
+                bail!("usage: expect fault KIND [J]");
+            }
+            if !FAULT_KINDS.contains(&w[0]) {
+                bail!("unknown fault kind `{}` (one of {})", w[0], FAULT_KINDS.join(", "));
+            }
+            Expect::Fault(w[0].to_string(), w.get(1).map(|j| joint(j)).transpose()?)
+        }
+        "state" => {
+            let [t, st] = two(&w)?;
+            const STATES: [&str; 7] = ["BOOT", "UNHOMED", "HOMING", "OPERATIONAL", "STOPPING", "SOFT_ESTOP", "FAULT"];
+            if !STATES.contains(&st) {
+                bail!("unknown state `{st}` (one of {})", STATES.join(", "));
+            }
+            Expect::State(parse_when(t)?, st.to_string())
+        }
+        "homed-by" => Expect::HomedBy(parse_when(one(&w)?)?),
+        "stop-within" => Expect::StopWithin(parse_ms(one(&w)?)?),
+        "tracking-rms-below" => Expect::TrackingRmsBelow(num(one(&w)?)?),
+        "tracking-max-below" => Expect::TrackingMaxBelow(num(one(&w)?)?),
+        "goal-within" => Expect::GoalWithin(num(one(&w)?)?),
+        "rejected-at-least" => Expect::RejectedAtLeast(one(&w)?.parse().context("count must be an integer")?),
+        "line" => Expect::Line(rest.trim().to_string()),
+        "no-line" => Expect::NoLine(rest.trim().to_string()),
+        "moving-after" => Expect::MovingAfter(parse_when(one(&w)?)?),
+        o => bail!(
+            "unknown expectation `{o}` (no-fault, fault, state, homed-by, stop-within, tracking-rms-below, \
+             tracking-max-below, goal-within, rejected-at-least, line, no-line, moving-after)"
+        ),
+    })
+}
+
+fn split1(s: &str) -> (&str, &str) {
+    let s = s.trim_start();
+    match s.find(char::is_whitespace) {
+        Some(i) => (&s[..i], &s[i..]),
+        None => (s, ""),
+    }
+}
+
+fn one<'a>(w: &[&'a str]) -> Result<&'a str> {
+    match w {
+        [x] => Ok(x),
+        _ => bail!("expected exactly one value, got {}", w.len()),
+    }
+}
+
+fn two<'a>(w: &[&'a str]) -> Result<[&'a str; 2]> {
+    match w {
+        [a, b] => Ok([a, b]),
+        _ => bail!("expected exactly two values, got {}", w.len()),
+    }
+}
+
+fn six(w: &[&str]) -> Result<[f64; AXES]> {
+    if w.len() != AXES {
+        bail!("expected {AXES} numbers, got {}", w.len());
+    }
+    let mut out = [0.0; AXES];
+    for (o, x) in out.iter_mut().zip(w) {
+        *o = num(x)?;
+    }
+    Ok(out)
+}
+
+fn num(s: &str) -> Result<f64> {
+    let v: f64 = s.parse().with_context(|| format!("`{s}` is not a number"))?;
+    if !v.is_finite() {
+        bail!("`{s}` is not finite");
+    }
+    Ok(v)
+}
+
+fn joint(s: &str) -> Result<usize> {
+    let j: usize = s.trim_start_matches(['J', 'j']).parse().with_context(|| format!("`{s}` is not a joint (1..6)"))?;
+    if !(1..=AXES).contains(&j) {
+        bail!("joint {j} out of range (1..6)");
+    }
+    Ok(j - 1)
+}
+
+fn parse_client(s: &str) -> Result<Client> {
+    match s {
+        "driver" => Ok(Client::Driver),
+        "config" | "configurator" => Ok(Client::Configurator),
+        o => bail!("client must be `driver` or `config`, not `{o}`"),
+    }
+}
+
+/// `123`, `123ms`, `1.5s`.
+pub fn parse_ms(s: &str) -> Result<u64> {
+    let (v, scale) = if let Some(x) = s.strip_suffix("ms") {
+        (x, 1.0)
+    } else if let Some(x) = s.strip_suffix('s') {
+        (x, 1000.0)
+    } else {
+        (s, 1.0)
+    };
+    let v = num(v).with_context(|| format!("bad time `{s}` (use 250, 250ms or 1.5s)"))?;
+    if v < 0.0 {
+        bail!("negative time `{s}`");
+    }
+    Ok((v * scale).round() as u64)
+}
+
+/// `TIME`, `ANCHOR`, `ANCHOR+TIME`, `ANCHOR#N+TIME`.
+pub fn parse_when(s: &str) -> Result<When> {
+    let first = s.chars().next().unwrap_or('0');
+    if first.is_ascii_digit() || first == '.' {
+        return Ok(When { anchor: None, offset_ms: parse_ms(s)? });
+    }
+    let (head, off) = match s.split_once('+') {
+        Some((h, o)) => (h, parse_ms(o)?),
+        None => (s, 0),
+    };
+    let (name, n) = match head.split_once('#') {
+        Some((a, n)) => (a, n.parse::<u32>().with_context(|| format!("bad occurrence `{n}`"))?),
+        None => (head, 1),
+    };
+    if n == 0 {
+        bail!("occurrences count from 1");
+    }
+    let anchor = Anchor::ALL.into_iter().find(|a| a.name() == name).with_context(|| {
+        format!("unknown anchor `{name}` (homed, estop, fault, enabled; e.g. homed+500 or estop#2+1s)")
+    })?;
+    Ok(When { anchor: Some((anchor, n)), offset_ms: off })
+}
+
+/// `\n`, `\r`, `\t`, `\\`, `\xNN`; everything else literal.
+pub fn unescape(s: &str) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    let b = s.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'\\' {
+            match b.get(i + 1) {
+                Some(b'n') => out.push(b'\n'),
+                Some(b'r') => out.push(b'\r'),
+                Some(b't') => out.push(b'\t'),
+                Some(b'\\') => out.push(b'\\'),
+                Some(b's') => out.push(b' '),
+                Some(b'x') => {
+                    let h = s.get(i + 2..i + 4).context("\\x needs two hex digits")?;
+                    out.push(u8::from_str_radix(h, 16).with_context(|| format!("bad hex escape \\x{h}"))?);
+                    i += 2;
+                }
+                _ => bail!("unknown escape at byte {i} (use \\n \\r \\t \\s \\\\ \\xNN)"),
+            }
+            i += 2;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    Ok(out)
+}
+
+/// The built-in scenarios, in the order they run.
+pub const BUILTIN: [(&str, &str); 10] = [
+    ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
+    ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
+    ("configurator-jog-25hz", include_str!("../scenarios/configurator-jog-25hz.scn")),
+    ("cable-pull", include_str!("../scenarios/cable-pull.scn")),
+    ("limit-hit", include_str!("../scenarios/limit-hit.scn")),
+    ("encoder-glitch", include_str!("../scenarios/encoder-glitch.scn")),
+    ("encoder-loss", include_str!("../scenarios/encoder-loss.scn")),
+    ("garbage", include_str!("../scenarios/garbage.scn")),
+    ("runaway", include_str!("../scenarios/runaway.scn")),
+    ("hal-window-decode", include_str!("../scenarios/hal-window-decode.scn")),
+];
+
+/// Parses the built-in scenarios.
+pub fn builtin() -> Result<Vec<Scenario>> {
+    BUILTIN.iter().map(|(n, t)| Scenario::parse(n, t).with_context(|| format!("built-in scenario {n}"))).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_parse() {
+        let all = builtin().unwrap();
+        assert_eq!(all.len(), BUILTIN.len());
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let e = Scenario::parse("x", "# c\nend 10s\nat 5 frobnicate 3\n").unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(msg.contains("line 3"), "{msg}");
+        assert!(msg.contains("unknown action"), "{msg}");
+        let e = Scenario::parse("x", "pose 1 2 3\n").unwrap_err();
+        assert!(format!("{e:#}").contains("line 1"));
+        let e = Scenario::parse("x", "at homd+5 send <HOME>\n").unwrap_err();
+        assert!(format!("{e:#}").contains("unknown anchor"));
+    }
+
+    #[test]
+    fn times_and_escapes() {
+        assert_eq!(parse_ms("1.5s").unwrap(), 1500);
+        assert_eq!(parse_ms("20ms").unwrap(), 20);
+        let w = parse_when("estop#2+1s").unwrap();
+        assert_eq!(w, When { anchor: Some((Anchor::Estop, 2)), offset_ms: 1000 });
+        assert_eq!(unescape("<a>\\x00\\r\\n").unwrap(), b"<a>\x00\r\n");
+    }
+}

@@ -1,0 +1,185 @@
+//! One SVG per scenario, written by hand (no plotting dependency: the
+//! workspace's release profile uses fat LTO and one codegen unit, and every
+//! extra crate costs build time in `cargo run -p sim --release`).
+//!
+//! Panels: a state strip; per joint, true angle and kernel set-point
+//! (rad), with the commanded velocity (rad/s, right axis, dashed).
+
+use std::fmt::Write as _;
+
+use kernel::config::AXES;
+use kernel::State;
+
+use crate::report::Report;
+
+const W: f64 = 1100.0;
+const LEFT: f64 = 70.0;
+const RIGHT: f64 = 60.0;
+const PANEL_H: f64 = 120.0;
+const GAP: f64 = 28.0;
+const STRIP_H: f64 = 22.0;
+const MAX_POINTS: usize = 1500;
+
+fn state_color(s: State) -> &'static str {
+    match s {
+        State::Boot => "#bbbbbb",
+        State::Unhomed => "#dddddd",
+        State::Homing => "#f0c040",
+        State::Operational => "#70c070",
+        State::Stopping => "#f09040",
+        State::SoftEstop => "#e06060",
+        State::Fault => "#a02020",
+    }
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// The SVG text for a report.
+pub fn plot(r: &Report) -> String {
+    let tr = &r.trace;
+    let h = 60.0 + STRIP_H + 30.0 + AXES as f64 * (PANEL_H + GAP) + 30.0;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{h}" viewBox="0 0 {W} {h}" font-family="sans-serif" font-size="11">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{LEFT}" y="20" font-size="15" font-weight="bold">{}</text><text x="{LEFT}" y="38">{}</text>"#,
+        esc(&r.name),
+        esc(&r.description.chars().take(160).collect::<String>())
+    );
+    if tr.is_empty() {
+        s.push_str("</svg>\n");
+        return s;
+    }
+    let t0 = tr[0].t as f64;
+    let t1 = (tr[tr.len() - 1].t as f64).max(t0 + 1.0);
+    let pw = W - LEFT - RIGHT;
+    let x = |t: u64| LEFT + (t as f64 - t0) / (t1 - t0) * pw;
+    // State strip.
+    let y0 = 60.0;
+    let mut k = 0;
+    while k < tr.len() {
+        let st = tr[k].state;
+        let mut e = k;
+        while e + 1 < tr.len() && tr[e + 1].state == st {
+            e += 1;
+        }
+        let (xa, xb) = (x(tr[k].t), x(tr[e].t + 1));
+        let _ = writeln!(
+            s,
+            r#"<rect x="{xa:.1}" y="{y0}" width="{:.1}" height="{STRIP_H}" fill="{}"><title>{st:?} {}..{} ms</title></rect>"#,
+            (xb - xa).max(0.5),
+            state_color(st),
+            tr[k].t,
+            tr[e].t
+        );
+        k = e + 1;
+    }
+    let _ = writeln!(s, r#"<text x="5" y="{}">state</text>"#, y0 + 15.0);
+    let mut lx = LEFT;
+    for st in [
+        State::Boot,
+        State::Unhomed,
+        State::Homing,
+        State::Operational,
+        State::Stopping,
+        State::SoftEstop,
+        State::Fault,
+    ] {
+        let _ = writeln!(
+            s,
+            r#"<rect x="{lx}" y="{}" width="10" height="10" fill="{}"/><text x="{}" y="{}">{st:?}</text>"#,
+            y0 + STRIP_H + 6.0,
+            state_color(st),
+            lx + 13.0,
+            y0 + STRIP_H + 15.0
+        );
+        lx += 95.0;
+    }
+    let _ = writeln!(
+        s,
+        r##"<line x1="{}" x2="{}" y1="{y}" y2="{y}" stroke="#1f77b4" stroke-width="2"/><text x="{}" y="{}">true angle</text><line x1="{}" x2="{}" y1="{y}" y2="{y}" stroke="#d62728" stroke-width="1.5"/><text x="{}" y="{}">set-point</text><line x1="{}" x2="{}" y1="{y}" y2="{y}" stroke="#2ca02c" stroke-dasharray="4 3"/><text x="{}" y="{}">velocity cmd (right axis)</text>"##,
+        lx + 10.0,
+        lx + 30.0,
+        lx + 33.0,
+        y0 + STRIP_H + 15.0,
+        lx + 110.0,
+        lx + 130.0,
+        lx + 133.0,
+        y0 + STRIP_H + 15.0,
+        lx + 200.0,
+        lx + 220.0,
+        lx + 223.0,
+        y0 + STRIP_H + 15.0,
+        y = y0 + STRIP_H + 11.0
+    );
+    let stride = tr.len().div_ceil(MAX_POINTS).max(1);
+    for j in 0..AXES {
+        let top = y0 + STRIP_H + 30.0 + j as f64 * (PANEL_H + GAP);
+        let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+        let mut vmax: f64 = 1e-3;
+        for smp in tr {
+            for v in [smp.q[j], smp.sp[j]] {
+                lo = lo.min(f64::from(v));
+                hi = hi.max(f64::from(v));
+            }
+            vmax = vmax.max(f64::from(smp.v[j]).abs());
+        }
+        if hi - lo < 1e-3 {
+            lo -= 0.01;
+            hi += 0.01;
+        }
+        let pad = (hi - lo) * 0.05;
+        let (lo, hi) = (lo - pad, hi + pad);
+        let y = |v: f64| top + PANEL_H - (v - lo) / (hi - lo) * PANEL_H;
+        let yv = |v: f64| top + PANEL_H / 2.0 - v / vmax * (PANEL_H / 2.0) * 0.95;
+        let _ = writeln!(
+            s,
+            r##"<rect x="{LEFT}" y="{top}" width="{pw}" height="{PANEL_H}" fill="none" stroke="#888"/><text x="5" y="{}" font-weight="bold">J{}</text><text x="5" y="{}">{hi:.3}</text><text x="5" y="{}">{lo:.3} rad</text><text x="{}" y="{}">{vmax:.2}</text><text x="{}" y="{}">-{vmax:.2} rad/s</text>"##,
+            top + PANEL_H / 2.0,
+            j + 1,
+            top + 10.0,
+            top + PANEL_H,
+            LEFT + pw + 3.0,
+            top + 10.0,
+            LEFT + pw + 3.0,
+            top + PANEL_H
+        );
+        for (sel, color, width, dash) in
+            [(2usize, "#2ca02c", 1.0, " stroke-dasharray=\"4 3\""), (0, "#1f77b4", 2.0, ""), (1, "#d62728", 1.2, "")]
+        {
+            let mut pts = String::new();
+            for smp in tr.iter().step_by(stride) {
+                let yy = match sel {
+                    0 => y(f64::from(smp.q[j])),
+                    1 => y(f64::from(smp.sp[j])),
+                    _ => yv(f64::from(smp.v[j])),
+                };
+                let _ = write!(pts, "{:.1},{:.1} ", x(smp.t), yy);
+            }
+            let _ =
+                writeln!(s, r#"<polyline fill="none" stroke="{color}" stroke-width="{width}"{dash} points="{pts}"/>"#);
+        }
+    }
+    let yb = h - 12.0;
+    let _ = writeln!(s, r#"<text x="{LEFT}" y="{yb}">{t0:.0} ms</text>"#);
+    let _ = writeln!(s, r#"<text x="{}" y="{yb}" text-anchor="end">{t1:.0} ms</text>"#, LEFT + pw);
+    for (t, f) in &r.faults {
+        let xx = x(*t);
+        let _ = writeln!(
+            s,
+            r##"<line x1="{xx:.1}" x2="{xx:.1}" y1="{y0}" y2="{}" stroke="#a02020" stroke-dasharray="2 2"/><text x="{:.1}" y="{}" fill="#a02020">{}</text>"##,
+            h - 25.0,
+            xx + 3.0,
+            h - 25.0,
+            esc(f)
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
