@@ -1,0 +1,193 @@
+//! Exhaustive evidence: every input value of the kernel's per-axis functions,
+//! enumerated on this machine (`cargo run -p exhaustive --release`).
+//!
+//! Each sweep fixes the parameters that come from the configuration (one
+//! sweep per distinct value among the six joints) and enumerates one 32-bit
+//! input completely: all 2^32 `I8F24` bit patterns, or all 2^32 `f32` bit
+//! patterns (NaNs, infinities, subnormals, both zeros included). Unwrapping
+//! is enumerated over every pair of 12-bit readings. A violation prints the
+//! first counterexample found and the run exits non-zero.
+
+use kernel::config::{AXES, PAROL6};
+use kernel::control::control_law;
+use kernel::interp::Interpolator;
+use kernel::observer::{wrap_delta, AlphaBeta, ObserverGains, Unwrapper};
+use kernel::{Fx, Scalar};
+use rayon::prelude::*;
+use std::time::Instant;
+
+struct Sweep {
+    requirement: &'static str,
+    name: String,
+    cases: u64,
+    counterexample: Option<String>,
+    seconds: f64,
+}
+
+/// Runs `prop` on every `u32`; returns the first failing input.
+fn all_u32(prop: impl Fn(u32) -> bool + Sync) -> Option<u32> {
+    (0..=u32::MAX).into_par_iter().find_any(|b| !prop(*b))
+}
+
+fn sweep(req: &'static str, name: String, cases: u64, f: impl FnOnce() -> Option<String>) -> Sweep {
+    let t = Instant::now();
+    let counterexample = f();
+    let s = Sweep { requirement: req, name, cases, counterexample, seconds: t.elapsed().as_secs_f64() };
+    eprintln!(
+        "  {:<6} {:<58} {:>14} cases  {:>6.1} s  {}",
+        s.requirement,
+        s.name,
+        s.cases,
+        s.seconds,
+        if s.counterexample.is_none() { "holds" } else { "VIOLATED" }
+    );
+    s
+}
+
+/// The distinct values of a per-joint parameter, with the joints using each.
+fn distinct(f: impl Fn(usize) -> (f32, f32)) -> Vec<((f32, f32), Vec<usize>)> {
+    let mut out: Vec<((f32, f32), Vec<usize>)> = Vec::new();
+    for j in 0..AXES {
+        let v = f(j);
+        match out.iter_mut().find(|(k, _)| *k == v) {
+            Some((_, js)) => js.push(j + 1),
+            None => out.push((v, vec![j + 1])),
+        }
+    }
+    out
+}
+
+fn main() {
+    let full = 1u64 << 32;
+    let mut results = Vec::new();
+    eprintln!("exhaustive sweeps ({} threads)", rayon::current_num_threads());
+
+    // SR-12: unwrapping over every pair of readings.
+    results.push(sweep("SR-12", "unwrap: every (previous, next) 12-bit reading pair".into(), 4096 * 4096, || {
+        (0u32..4096 * 4096)
+            .into_par_iter()
+            .find_any(|i| {
+                let (a, b) = ((i >> 12) as u16, (i & 0xfff) as u16);
+                let d = wrap_delta(a, b);
+                let mut u = Unwrapper::new(a);
+                u.update(b);
+                !((-2048..=2047).contains(&d)
+                    && (i32::from(a) + d).rem_euclid(4096) == i32::from(b)
+                    && u.total() == i32::from(a) + d
+                    && u.last() == b)
+            })
+            .map(|i| format!("prev {}, next {}", i >> 12, i & 0xfff))
+    }));
+
+    // SR-2, SR-3: saturation, both variants, each distinct max velocity.
+    for ((vmax, _), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, 0.0)) {
+        let l = Fx::from_f32(vmax);
+        results.push(sweep("SR-2", format!("saturate I8F24 to +-{vmax} (J{joints:?})"), full, || {
+            all_u32(|b| {
+                let x = Fx::from_bits(b as i32);
+                let y = x.saturate(l);
+                Scalar::abs(y) <= l && (y == x || (x > l && y == l) || (x < -l && y == -l))
+            })
+            .map(|b| format!("x bits {b:#010x}"))
+        }));
+        results.push(sweep(
+            "SR-2/3",
+            format!("saturate f32 to +-{vmax}, every bit pattern (J{joints:?})"),
+            full,
+            || {
+                all_u32(|b| {
+                    let x = f32::from_bits(b);
+                    let y = x.saturate(vmax);
+                    y.is_finite()
+                        && y.abs() <= vmax
+                        && if !x.is_finite() { y.to_bits() == 0 } else { y == x.clamp(-vmax, vmax) }
+                })
+                .map(|b| format!("x bits {b:#010x}"))
+            },
+        ));
+    }
+
+    // SR-2, SR-3: control law over every position error.
+    for ((kp, vmax), joints) in distinct(|j| (PAROL6.joints[j].kp, PAROL6.joints[j].max_velocity)) {
+        let (kpx, vx) = (Fx::from_f32(kp), Fx::from_f32(vmax));
+        results.push(sweep(
+            "SR-2",
+            format!("control law I8F24, every set-point, Kp {kp}, vmax {vmax} (J{joints:?})"),
+            full,
+            || {
+                all_u32(|b| {
+                    let sp = Fx::from_bits(b as i32);
+                    let (v, ok) = control_law(sp, Fx::ZERO, Fx::ZERO, kpx, vx, Fx::ZERO);
+                    // Exactly the saturated law, with the sign of the error.
+                    ok && v == kpx.saturating_mul(sp).saturate(vx) && (v >= Fx::ZERO) == (sp >= Fx::ZERO)
+                })
+                .map(|b| format!("set-point bits {b:#010x}"))
+            },
+        ));
+        results.push(sweep(
+            "SR-2/3",
+            format!("control law f32, every set-point bit pattern, Kp {kp}, vmax {vmax}"),
+            full,
+            || {
+                all_u32(|b| {
+                    let sp = f32::from_bits(b);
+                    let (v, ok) = control_law(sp, 0.0, 0.0, kp, vmax, 0.0);
+                    // A finite set-point whose Kp * e overflows is absurd: zero, not ok.
+                    let sane = sp.is_finite() && (kp * sp).is_finite();
+                    v.is_finite() && v.abs() <= vmax && ok == sane && (ok || v.to_bits() == 0)
+                })
+                .map(|b| format!("set-point bits {b:#010x}"))
+            },
+        ));
+    }
+
+    // SR-18: one interpolator step toward every target, each distinct speed.
+    for ((vmax, _), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, 0.0)) {
+        let max_step = Fx::from_f32(vmax / PAROL6.tick_hz as f32);
+        let inv10 = Fx::from_f32(0.1);
+        results.push(sweep(
+            "SR-18",
+            format!("interpolator I8F24 first step, every target, vmax {vmax} (J{joints:?})"),
+            full,
+            || {
+                all_u32(|b| {
+                    let target = Fx::from_bits(b as i32);
+                    let mut it = Interpolator::hold(Fx::ZERO);
+                    it.retarget(target, inv10, max_step);
+                    let (sp, moved) = it.advance();
+                    let (lo, hi) = (Ord::min(target, Fx::ZERO), Ord::max(target, Fx::ZERO));
+                    sp >= lo && sp <= hi && Scalar::abs(moved) <= max_step && sp == moved
+                })
+                .map(|b| format!("target bits {b:#010x}"))
+            },
+        ));
+    }
+
+    // Observer: the corrected estimate lies between prediction and measurement.
+    let g = ObserverGains {
+        alpha: Fx::from_f32(PAROL6.alpha),
+        beta_hz: Fx::from_f32(PAROL6.beta * PAROL6.tick_hz as f32),
+        dt: Fx::from_f32(1.0 / PAROL6.tick_hz as f32),
+    };
+    results.push(sweep("SR-3", "observer I8F24 step from rest, every measurement".into(), full, || {
+        all_u32(|b| {
+            let z = Fx::from_bits(b as i32);
+            let mut o = AlphaBeta::at(Fx::ZERO);
+            o.step(z, &g);
+            let (lo, hi) = (Ord::min(z, Fx::ZERO), Ord::max(z, Fx::ZERO));
+            o.x >= lo && o.x <= hi && (o.v >= Fx::ZERO) == (z >= Fx::ZERO)
+        })
+        .map(|b| format!("z bits {b:#010x}"))
+    }));
+
+    let failed: Vec<&Sweep> = results.iter().filter(|s| s.counterexample.is_some()).collect();
+    let total: u64 = results.iter().map(|s| s.cases).sum();
+    let secs: f64 = results.iter().map(|s| s.seconds).sum();
+    println!("exhaustive: {} sweeps, {total} cases, {secs:.1} s, {} violated", results.len(), failed.len());
+    for s in &failed {
+        println!("VIOLATED {} {}: {}", s.requirement, s.name, s.counterexample.as_deref().unwrap_or(""));
+    }
+    if !failed.is_empty() {
+        std::process::exit(1);
+    }
+}
