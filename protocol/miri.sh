@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Runs the SPSC queue tests (heapless::spsc under the protocol's Link) under
+# Miri, which checks for undefined behaviour and data races in the executions
+# it runs (sampled evidence: Miri explores one interleaving per run, with its
+# own scheduler; it is not a model checker).
+# Usage: protocol/miri.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! rustup toolchain list | grep -q '^nightly'; then
+    rustup toolchain install nightly --profile minimal
+fi
+if ! rustup +nightly component list --installed | grep -q '^miri'; then
+    rustup +nightly component add miri rust-src
+fi
+
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-/work/target-proto}"
+# Several seeds so the two-thread test sees different interleavings.
+for seed in 0 1 2 3; do
+    MIRIFLAGS="-Zmiri-seed=$seed" cargo +nightly miri test -p protocol queue
+done
