@@ -49,7 +49,7 @@ fn real_main() -> Result<ExitCode> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut cmd: Option<String> = None;
     let mut files: Vec<PathBuf> = Vec::new();
-    let mut out = PathBuf::from("target/sim-report");
+    let mut out = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../target/sim-report"));
     let mut opts = RunOptions::default();
     let mut with_builtin = false;
     let mut live = LiveOptions::new(&PAROL6);

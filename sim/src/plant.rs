@@ -129,6 +129,7 @@ impl Plant {
     }
 
     /// Samples encoders and switches at the start of the current tick.
+    #[allow(clippy::needless_range_loop)] // several per-axis arrays
     pub fn sense(&mut self) -> Sense {
         let jitter = (self.rng.uniform() * 2.0 - 1.0) * self.opts.jitter_cycles;
         let t = (self.tick + 1) as f64 * self.tick_cycles + jitter;
@@ -150,6 +151,7 @@ impl Plant {
     }
 
     /// Applies step rates (steps/s) for one tick.
+    #[allow(clippy::needless_range_loop)] // several per-axis arrays
     pub fn apply(&mut self, step_rate: &[i32; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
         for i in 0..AXES {

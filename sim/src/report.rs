@@ -267,8 +267,8 @@ pub fn summary(reports: &[Report]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<26} {:>7} {:>7} {:>9} {:>9} {:>8} {:>6} {:>7}  {:<28} {}",
-        "scenario", "sim s", "H2 s", "rms mrad", "max mrad", "stop ms", "rej", "safety", "faults", "expectations"
+        "{:<26} {:>7} {:>7} {:>9} {:>9} {:>8} {:>6} {:>7}  {:<28} expectations",
+        "scenario", "sim s", "H2 s", "rms mrad", "max mrad", "stop ms", "rej", "safety", "faults"
     );
     for r in reports {
         let rms = r.tracking.iter().map(|e| e.rms_mrad()).fold(0.0, f64::max);

@@ -139,7 +139,7 @@ fn fault_matches(kind: &str, joint: Option<usize>, r: &FaultReason) -> bool {
 }
 
 /// Safety checks of one tick; returns the violations.
-fn check_tick(cfg: &ArmConfig, step: &Step, prev: Option<&Step>) -> Vec<String> {
+pub fn check_tick(cfg: &ArmConfig, step: &Step, prev: Option<&Step>) -> Vec<String> {
     let mut bad = Vec::new();
     let out = &step.out;
     let st = out.status.state;
@@ -249,7 +249,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         if t >= end {
             break;
         }
-        if t % 500 == 0 {
+        if t.is_multiple_of(500) {
             progress(t as f64 / end.max(1) as f64);
         }
         let mut input: Vec<u8> = Vec::new();
