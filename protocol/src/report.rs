@@ -350,6 +350,46 @@ pub fn banner_line(
     push_byte(out, b'\n')
 }
 
+/// Turns one telemetry element into its output lines (in order), calling
+/// `emit` for each: a status gives the feedback line(s) of `mode`
+/// acknowledging `ack_seq` (configurator line first in `Both`), an event its
+/// event line, a loss its `EVENTS_LOST` / `TELEMETRY_LOST` line.
+pub fn telemetry_lines<S: kernel::Scalar>(
+    t: &crate::queue::Telemetry<S>,
+    mode: FeedbackMode,
+    ack_seq: u32,
+    out: &mut Line,
+    mut emit: impl FnMut(&str),
+) -> Result<(), Full> {
+    use crate::feedback::{configurator_line, driver_line};
+    use crate::queue::Telemetry;
+    match t {
+        Telemetry::Status { status, tick_us } => {
+            if matches!(mode, FeedbackMode::Configurator | FeedbackMode::Both) {
+                configurator_line(out, ack_seq, status, *tick_us)?;
+                emit(out);
+            }
+            if matches!(mode, FeedbackMode::Driver | FeedbackMode::Both) {
+                driver_line(out, ack_seq, status)?;
+                emit(out);
+            }
+        }
+        Telemetry::Event(e) => {
+            event_line(out, e)?;
+            emit(out);
+        }
+        Telemetry::EventsLost(n) => {
+            events_lost_line(out, u32::from(*n))?;
+            emit(out);
+        }
+        Telemetry::Lost(n) => {
+            telemetry_lost_line(out, *n)?;
+            emit(out);
+        }
+    }
+    Ok(())
+}
+
 // ---- configuration fingerprint -------------------------------------------
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -463,6 +503,33 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
 mod tests {
     use super::*;
     use kernel::config::PAROL6;
+
+    #[test]
+    fn telemetry_to_lines() {
+        use crate::queue::Telemetry;
+        let status = kernel::Status {
+            state: State::Homing,
+            homing: kernel::HomingStatus::InProgress,
+            fault: None,
+            position: [0.0f32; 6],
+            velocity: [0.0; 6],
+            setpoint: [0.0; 6],
+            limits: 1,
+            homed: 0,
+            timeout_armed: false,
+            tick: 0,
+        };
+        let mut out = Line::new();
+        let mut lines = Vec::new();
+        let t = Telemetry::Status { status, tick_us: 9 };
+        telemetry_lines(&t, FeedbackMode::Both, 3, &mut out, |l| lines.push(l.to_string())).unwrap();
+        telemetry_lines(&Telemetry::<f32>::Lost(2), FeedbackMode::Both, 3, &mut out, |l| lines.push(l.to_string()))
+            .unwrap();
+        assert_eq!(lines.len(), 3);
+        assert!(lines[0].ends_with(",1,2,9>\n"), "{}", lines[0]);
+        assert!(lines[1].ends_with(",H1>\n"), "{}", lines[1]);
+        assert_eq!(lines[2], "TELEMETRY_LOST n=2\n");
+    }
 
     #[test]
     fn fnv_known_vectors() {
