@@ -60,6 +60,8 @@ pub struct Report {
     /// Tracking error against the host's continuous reference (includes the
     /// one-segment interpolation delay).
     pub tracking_ref: [JointError; AXES],
+    /// Largest commanded acceleration per joint while OPERATIONAL (rad/s^2).
+    pub max_accel: [f64; AXES],
     /// (last command of a burst, ms to standstill).
     pub stops: Vec<(u64, Option<u64>)>,
     /// Goal error of the last burst (rad).
@@ -149,6 +151,12 @@ impl Report {
                  includes the interpolator's one-segment delay, by design)"
             );
         }
+        let acc: Vec<String> = self.max_accel.iter().enumerate().map(|(i, a)| format!("J{} {a:.0}", i + 1)).collect();
+        let _ = writeln!(
+            s,
+            "largest commanded acceleration while OPERATIONAL (rad/s^2, velocity change per tick x tick rate): {}",
+            acc.join(", ")
+        );
         let _ = writeln!(s, "\nlast command to standstill (all step rates zero):");
         if self.stops.is_empty() {
             let _ = writeln!(s, "  (no command burst)");

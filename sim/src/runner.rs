@@ -423,6 +423,16 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     // (Operational, a motion accepted within the last 50 ms).
     let mut err = [JointError::default(); AXES];
     let mut err_ref = [JointError::default(); AXES];
+    // Largest commanded acceleration per joint while Operational (rad/s^2).
+    let mut accel = [0.0f64; AXES];
+    for w in trace.windows(2) {
+        if w[1].state == State::Operational {
+            for (i, a) in accel.iter_mut().enumerate() {
+                let dv = (f64::from(w[1].v[i]) - f64::from(w[0].v[i])).abs() * f64::from(cfg.tick_hz);
+                *a = a.max(dv);
+            }
+        }
+    }
     let mut last_acc: Option<u64> = None;
     let mut burst_len = 0u32;
     for s in &trace {
@@ -560,6 +570,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         homed_at: occ[Anchor::Homed.index()].first().copied(),
         tracking: err,
         tracking_ref: err_ref,
+        max_accel: accel,
         stops,
         goal_error: goal,
         faults,

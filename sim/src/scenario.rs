@@ -579,7 +579,7 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 10] = [
+pub const BUILTIN: [(&str, &str); 11] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("configurator-jog-25hz", include_str!("../scenarios/configurator-jog-25hz.scn")),
@@ -589,6 +589,7 @@ pub const BUILTIN: [(&str, &str); 10] = [
     ("encoder-loss", include_str!("../scenarios/encoder-loss.scn")),
     ("garbage", include_str!("../scenarios/garbage.scn")),
     ("runaway", include_str!("../scenarios/runaway.scn")),
+    ("configurator-goto", include_str!("../scenarios/configurator-goto.scn")),
     ("hal-window-decode", include_str!("../scenarios/hal-window-decode.scn")),
 ];
 

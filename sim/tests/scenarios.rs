@@ -27,7 +27,7 @@ fn assert_passes(r: &Report) {
 #[test]
 fn every_builtin_scenario_parses_and_its_file_loads() {
     let all = builtin().unwrap();
-    assert_eq!(all.len(), 10);
+    assert_eq!(all.len(), 11);
     for s in &all {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(format!("{}.scn", s.name));
         let f = Scenario::from_file(&path).unwrap();
