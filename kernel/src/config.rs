@@ -104,6 +104,8 @@ pub struct JointConfig {
     pub runaway_velocity: f32,
     /// Proportional gain (1/s).
     pub kp: f32,
+    /// Largest change of the commanded velocity in Operational (rad/s^2).
+    pub max_acceleration: f32,
     /// Lower joint limit (rad).
     pub limit_min: f32,
     /// Upper joint limit (rad).
@@ -176,6 +178,9 @@ pub struct ArmConfig {
     pub homing_budget_ms: u32,
     /// Distance beyond the joint limits tolerated before a position fault (rad).
     pub position_margin: f32,
+    /// Consecutive invalid or implausible encoder samples tolerated (the
+    /// observer coasts on its prediction meanwhile); one more is a fault.
+    pub encoder_invalid_limit: u32,
 }
 
 /// Upper bound of segment lengths, in ticks (the size of the reciprocal table).
@@ -196,6 +201,8 @@ const fn joint(
         max_velocity,
         runaway_velocity: max_velocity * 1.25,
         kp,
+        // Full speed in 100 ms: the same rate as the soft-stop ramp.
+        max_acceleration: max_velocity * 10.0,
         limit_min: limits.0,
         limit_max: limits.1,
         encoder_reversed: false,
@@ -235,6 +242,7 @@ pub const PAROL6: ArmConfig = ArmConfig {
     boot_timeout_ms: 50,
     homing_budget_ms: 85_000,
     position_margin: 0.1,
+    encoder_invalid_limit: 2,
 };
 
 const _: () = assert_valid(&PAROL6);
@@ -293,6 +301,9 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
     }
     if ms_to_ticks(c.boot_timeout_ms, c.tick_hz) < 2 {
         return Err("boot timeout must allow at least two ticks");
+    }
+    if c.encoder_invalid_limit > 10 {
+        return Err("encoder_invalid_limit above 10 samples: coasting that long is not safe");
     }
     if !(finite(c.position_margin) && c.position_margin >= 0.0 && c.position_margin < 1.0) {
         return Err("position margin must be in [0, 1) rad");
@@ -353,8 +364,12 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
         return Err("runaway threshold absurdly high");
     }
     let jump = j.max_jump_counts(c.tick_hz);
-    if jump >= COUNTS_PER_REV / 4 {
+    // After coasting over invalid samples the window grows with their count.
+    if jump * (c.encoder_invalid_limit as i32 + 1) >= COUNTS_PER_REV / 4 {
         return Err("encoder plausibility window too wide to unwrap unambiguously");
+    }
+    if !(finite(j.max_acceleration) && j.max_acceleration > 0.0 && j.max_acceleration <= 1000.0) {
+        return Err("max acceleration must be in (0, 1000] rad/s^2");
     }
     if !(finite(j.kp) && j.kp > 0.0 && j.kp * dt <= 0.5) {
         return Err("Kp must be > 0 and Kp * dt <= 0.5 (discrete loop stable, not oscillatory)");
@@ -438,6 +453,9 @@ mod tests {
         assert!(with(|c| c.segment_max_ms = 100).is_err());
         assert!(with(|c| c.joints[3].homing.fast_speed = 7.0).is_err());
         assert!(with(|c| c.joints[3].homing.switch_position = -3.0).is_err());
+        assert!(with(|c| c.encoder_invalid_limit = 11).is_err());
+        assert!(with(|c| c.encoder_invalid_limit = 4).is_err()); // J3's window would exceed 1024 counts
+        assert!(with(|c| c.joints[4].max_acceleration = 0.0).is_err());
     }
 
     #[test]

@@ -8,7 +8,7 @@
 use crate::scalar::Scalar;
 
 /// Phase of one axis's homing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Phase {
     /// Not part of the current homing run.
     Idle,
@@ -58,7 +58,7 @@ pub struct HomingStep<S> {
 }
 
 /// One axis's homing state.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
 pub struct AxisHoming<S> {
     phase: Phase,
     /// Position where the switch released (back-off and release phases).

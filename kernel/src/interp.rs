@@ -18,7 +18,7 @@
 use crate::scalar::Scalar;
 
 /// One axis's interpolator.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
 pub struct Interpolator<S> {
     sp: S,
     start: S,

@@ -21,6 +21,49 @@ const ALL: u8 = 0b11_1111;
 /// Velocities beyond this magnitude (rad/s) in the observer are absurd.
 const VELOCITY_ABS_MAX: f32 = 64.0;
 
+/// The limits a motion target must respect, in the kernel's scalar type:
+/// the one check both the protocol parser and the kernel apply, so they can
+/// never disagree.
+///
+/// The configuration states limits as `f32`; each is widened outward by one
+/// `f32` ulp (~0.2 urad) before conversion so that the fixed-point variant,
+/// whose nearest value to e.g. `2.1f32` lies 1-2 LSB inside `2.1`, still
+/// accepts a command of exactly `2.100`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetLimits<S> {
+    lo: [S; AXES],
+    hi: [S; AXES],
+    vmax: [S; AXES],
+}
+
+impl<S: Scalar> TargetLimits<S> {
+    /// The limits of `config`'s joints.
+    pub fn new(config: &ArmConfig) -> Self {
+        TargetLimits {
+            lo: config.joints.map(|j| S::from_f32(j.limit_min.next_down())),
+            hi: config.joints.map(|j| S::from_f32(j.limit_max.next_up())),
+            vmax: config.joints.map(|j| S::from_f32(j.max_velocity)),
+        }
+    }
+    /// Accepts the target whole, or names the first axis and reason.
+    pub fn check(&self, t: &MotionTarget<S>) -> Result<(), Reject> {
+        let lims = self.lo.iter().zip(self.hi.iter()).zip(self.vmax.iter());
+        for (i, ((pos, vel), ((lo, hi), vmax))) in t.position.iter().zip(t.velocity.iter()).zip(lims).enumerate() {
+            let axis = i as u8;
+            if !(pos.is_finite() && vel.is_finite()) {
+                return Err(Reject::NonFinite { axis });
+            }
+            if pos < lo || pos > hi {
+                return Err(Reject::PositionOutOfLimits { axis });
+            }
+            if vel.abs() > *vmax {
+                return Err(Reject::VelocityTooHigh { axis });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Per-axis constants in the kernel's scalar type.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct AxisParams<S: Scalar> {
@@ -28,8 +71,8 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub max_step: S,
     pub runaway: S,
     pub kp: S,
-    pub cmd_lo: S,
-    pub cmd_hi: S,
+    /// Largest velocity change per tick in Operational.
+    pub accel_step: S,
     pub pos_lo: S,
     pub pos_hi: S,
     pub k_count: S::Wide,
@@ -49,8 +92,7 @@ impl<S: Scalar> AxisParams<S> {
             max_step: S::from_f32(j.max_velocity / c.tick_hz as f32),
             runaway: S::from_f32(j.runaway_velocity),
             kp: S::from_f32(j.kp),
-            cmd_lo: S::from_f32(j.limit_min),
-            cmd_hi: S::from_f32(j.limit_max),
+            accel_step: S::from_f32(j.max_acceleration / c.tick_hz as f32),
             pos_lo: S::from_f32(j.limit_min - c.position_margin),
             pos_hi: S::from_f32(j.limit_max + c.position_margin),
             k_count: S::wide_from_f64(j.rad_per_count()),
@@ -72,6 +114,7 @@ impl<S: Scalar> AxisParams<S> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Params<S: Scalar> {
     pub axes: [AxisParams<S>; AXES],
+    pub limits: TargetLimits<S>,
     pub gains: ObserverGains<S>,
     pub tick_hz: i32,
     pub deadband: S,
@@ -83,6 +126,7 @@ pub(crate) struct Params<S: Scalar> {
     /// `recip[n] = 1/n` (index 0 unused).
     pub recip: [S; MAX_SEGMENT_TICKS as usize + 1],
     pub boot_ticks: u32,
+    pub invalid_limit: u32,
     pub pos_abs: S,
     pub vel_abs: S,
 }
@@ -92,6 +136,7 @@ impl<S: Scalar> Params<S> {
         let stop_ticks = ms_to_ticks(c.soft_stop_ms, c.tick_hz).max(1);
         Params {
             axes: c.joints.map(|j| AxisParams::new(&j, c)),
+            limits: TargetLimits::new(c),
             gains: ObserverGains {
                 alpha: S::from_f32(c.alpha),
                 beta_hz: S::from_f32(c.beta * c.tick_hz as f32),
@@ -106,6 +151,7 @@ impl<S: Scalar> Params<S> {
             seg_max: ms_to_ticks(c.segment_max_ms, c.tick_hz).clamp(1, MAX_SEGMENT_TICKS),
             recip: core::array::from_fn(|n| if n == 0 { S::ZERO } else { S::from_f32(1.0 / n as f32) }),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
+            invalid_limit: c.encoder_invalid_limit,
             pos_abs: S::from_f32(POSITION_ABS_MAX),
             vel_abs: S::from_f32(VELOCITY_ABS_MAX),
         }
@@ -113,7 +159,7 @@ impl<S: Scalar> Params<S> {
 }
 
 /// Per-axis state.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
 pub(crate) struct Axis<S: Scalar> {
     pub ready: bool,
     pub unwrap: Unwrapper,
@@ -123,6 +169,8 @@ pub(crate) struct Axis<S: Scalar> {
     pub homing: AxisHoming<S>,
     /// The unwrapped count can no longer be trusted (encoder fault).
     pub needs_reinit: bool,
+    /// Consecutive invalid or implausible samples (the observer coasts).
+    pub invalid: u32,
 }
 
 impl<S: Scalar> Axis<S> {
@@ -135,6 +183,7 @@ impl<S: Scalar> Axis<S> {
             zero: S::ZERO,
             homing: AxisHoming::default(),
             needs_reinit: false,
+            invalid: 0,
         }
     }
     /// The measured joint angle from the unwrapped count.
@@ -146,12 +195,13 @@ impl<S: Scalar> Axis<S> {
         self.unwrap = Unwrapper::new(count);
         self.ready = true;
         self.needs_reinit = false;
+        self.invalid = 0;
         self.obs = AlphaBeta::at(self.measured(p));
         self.interp = Interpolator::hold(self.obs.x);
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
 enum Mode<S> {
     Boot,
     Unhomed,
@@ -173,6 +223,8 @@ pub struct Kernel<S: Scalar> {
     /// Joints of the current homing run, and the group being homed.
     run_mask: u8,
     run_group: usize,
+    /// `<HOME>` received while booting, started when boot completes.
+    home_queued: bool,
     homed: u8,
     tick: u32,
     boot_ticks: u32,
@@ -212,6 +264,7 @@ impl<S: Scalar> Kernel<S> {
             homing_status: HomingStatus::NotRequested,
             run_mask: 0,
             run_group: 0,
+            home_queued: false,
             homed: 0,
             tick: 0,
             boot_ticks: 0,
@@ -240,6 +293,16 @@ impl<S: Scalar> Kernel<S> {
     /// The latched fault, if any.
     pub fn fault(&self) -> Option<Fault> {
         self.fault
+    }
+
+    /// The outputs returned by the last tick.
+    pub fn last_output(&self) -> [S; AXES] {
+        self.last_out
+    }
+
+    /// Homing status (`H0`..`H3`).
+    pub fn homing_status(&self) -> HomingStatus {
+        self.homing_status
     }
 
     /// Homing phase of each axis (for tests, proofs and reports).
@@ -280,6 +343,12 @@ impl<S: Scalar> Kernel<S> {
             if self.axes.iter().all(|a| a.ready) {
                 self.mode = Mode::Unhomed;
                 events.push(Event::Ready);
+                if self.home_queued {
+                    self.home_queued = false;
+                    if self.start_homing(ALL).is_ok() {
+                        events.push(Event::HomingStarted { mask: ALL });
+                    }
+                }
             } else {
                 self.boot_ticks = self.boot_ticks.saturating_add(1);
                 if self.boot_ticks > self.p.boot_ticks {
@@ -293,7 +362,7 @@ impl<S: Scalar> Kernel<S> {
         // measurements, and before supervision, so their effect is checked.
         if let Some(r) = request {
             let kind = r.kind();
-            if let Err(reason) = self.handle(r, sense) {
+            if let Err(reason) = self.handle(r, sense, fault) {
                 events.push(Event::Rejected { request: kind, reason });
             } else if let Some(e) = self.request_event(kind) {
                 events.push(e);
@@ -373,6 +442,7 @@ impl<S: Scalar> Kernel<S> {
     fn sense_and_estimate(&mut self, sense: &Sense, fault: &mut Option<FaultReason>) {
         let gains = self.p.gains;
         let (pos_abs, vel_abs) = (self.p.pos_abs, self.p.vel_abs);
+        let invalid_limit = self.p.invalid_limit;
         for (i, ((ax, p), sample)) in
             self.axes.iter_mut().zip(self.p.axes.iter()).zip(sense.encoders.iter()).enumerate()
         {
@@ -389,20 +459,28 @@ impl<S: Scalar> Kernel<S> {
             } else if ax.needs_reinit {
                 // Count lost under a latched fault; enable re-initialises it.
             } else {
-                match count {
-                    None => {
-                        fault.get_or_insert(FaultReason::EncoderLost { axis });
-                        ax.needs_reinit = true;
+                // A lost or implausible sample is skipped and the observer
+                // coasts; more than `invalid_limit` in a row is a fault. The
+                // plausibility window grows with the samples skipped.
+                let window = p.max_jump.unsigned_abs().saturating_mul(ax.invalid.saturating_add(1));
+                let delta = count.map(|c| (c, ax.unwrap.delta(c)));
+                match delta {
+                    Some((c, d)) if d.unsigned_abs() <= window => {
+                        ax.invalid = 0;
+                        ax.unwrap.update(c);
+                        let z = ax.measured(p);
+                        ax.obs.step(z, &gains);
                     }
-                    Some(c) => {
-                        let d = ax.unwrap.delta(c);
-                        if d.unsigned_abs() > p.max_jump.unsigned_abs() {
-                            fault.get_or_insert(FaultReason::EncoderJump { axis, delta: d });
+                    _ => {
+                        ax.invalid = ax.invalid.saturating_add(1);
+                        ax.obs.coast(&gains);
+                        if ax.invalid > invalid_limit {
+                            let reason = match delta {
+                                Some((_, d)) => FaultReason::EncoderJump { axis, delta: d },
+                                None => FaultReason::EncoderLost { axis },
+                            };
+                            fault.get_or_insert(reason);
                             ax.needs_reinit = true;
-                        } else {
-                            ax.unwrap.update(c);
-                            let z = ax.measured(p);
-                            ax.obs.step(z, &gains);
                         }
                     }
                 }
@@ -420,14 +498,17 @@ impl<S: Scalar> Kernel<S> {
     fn follow(&mut self, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
         let hz = self.p.tick_hz;
         let db = self.p.deadband;
-        for (i, ((ax, p), o)) in self.axes.iter_mut().zip(self.p.axes.iter()).zip(out.iter_mut()).enumerate() {
+        let axes = self.axes.iter_mut().zip(self.p.axes.iter()).zip(out.iter_mut()).zip(self.last_out.iter());
+        for (i, (((ax, p), o), prev)) in axes.enumerate() {
             let (sp, moved) = ax.interp.advance();
             let ff = moved.times_int(hz);
             let (v, ok) = control_law(sp, ff, ax.obs.x, p.kp, p.vmax, db);
             if !ok {
                 fault.get_or_insert(FaultReason::Numeric { axis: i as u8 });
             }
-            *o = v;
+            // Acceleration limit: within one tick's change of the last
+            // output (which is within +-vmax, so the result is too).
+            *o = v.clamp_between(prev.minus(p.accel_step), prev.plus(p.accel_step));
         }
     }
 
@@ -501,6 +582,8 @@ impl<S: Scalar> Kernel<S> {
     }
 
     /// Set-points to the measured positions, timeout disarmed, no history.
+    /// Also called on entering Homing and Fault, where nothing reads them, so
+    /// no stale set-point or interval survives a mode change.
     fn resync(&mut self) {
         for ax in self.axes.iter_mut() {
             ax.interp = Interpolator::hold(ax.obs.x);
@@ -537,7 +620,8 @@ impl<S: Scalar> Kernel<S> {
     }
 
     fn enter_fault(&mut self, reason: FaultReason) {
-        if self.mode == Mode::Homing {
+        if self.mode == Mode::Homing || self.home_queued {
+            self.home_queued = false;
             self.homing_status = HomingStatus::Failed;
             // Axes of the aborted run are not homed.
             self.homed &= !self.run_mask;
@@ -556,20 +640,26 @@ impl<S: Scalar> Kernel<S> {
         }
         self.fault = Some(Fault { reason, tick: self.tick });
         self.mode = Mode::Fault;
-        self.armed = false;
+        self.resync();
     }
 
     fn request_event(&self, kind: RequestKind) -> Option<Event> {
         match kind {
+            RequestKind::Home if self.home_queued => Some(Event::HomingQueued),
             RequestKind::Home | RequestKind::HomeJoint(_) => Some(Event::HomingStarted { mask: self.run_mask }),
             RequestKind::Enable => Some(Event::Enabled(self.state())),
             RequestKind::Motion => None,
         }
     }
 
-    fn handle(&mut self, r: Request<S>, sense: &Sense) -> Result<(), Reject> {
+    fn handle(&mut self, r: Request<S>, sense: &Sense, detected: Option<FaultReason>) -> Result<(), Reject> {
         match r {
             Request::Motion(t) => self.accept_motion(&t),
+            Request::Home if self.mode == Mode::Boot => {
+                self.home_queued = true;
+                self.homing_status = HomingStatus::InProgress;
+                Ok(())
+            }
             Request::Home => self.start_homing(ALL),
             Request::HomeJoint(j) => {
                 let j = usize::from(j);
@@ -582,7 +672,7 @@ impl<S: Scalar> Kernel<S> {
                 }
                 self.start_homing(bit(j))
             }
-            Request::Enable(_cap) => self.enable(sense),
+            Request::Enable(_cap) => self.enable(sense, detected),
         }
     }
 
@@ -600,19 +690,7 @@ impl<S: Scalar> Kernel<S> {
     /// Validates a target against every joint's limits; the frame is
     /// accepted whole or not at all.
     pub fn validate(&self, t: &MotionTarget<S>) -> Result<(), Reject> {
-        for (i, ((pos, vel), p)) in t.position.iter().zip(t.velocity.iter()).zip(self.p.axes.iter()).enumerate() {
-            let axis = i as u8;
-            if !(pos.is_finite() && vel.is_finite()) {
-                return Err(Reject::NonFinite { axis });
-            }
-            if *pos < p.cmd_lo || *pos > p.cmd_hi {
-                return Err(Reject::PositionOutOfLimits { axis });
-            }
-            if vel.abs() > p.vmax {
-                return Err(Reject::VelocityTooHigh { axis });
-            }
-        }
-        Ok(())
+        self.p.limits.check(t)
     }
 
     fn accept_motion(&mut self, t: &MotionTarget<S>) -> Result<(), Reject> {
@@ -652,6 +730,7 @@ impl<S: Scalar> Kernel<S> {
         for (i, ax) in self.axes.iter_mut().enumerate() {
             ax.homing.reset(mask & bit(i) != 0);
         }
+        self.resync();
         self.run_mask = mask;
         self.run_group = 0;
         self.mode = Mode::Homing;
@@ -686,13 +765,15 @@ impl<S: Scalar> Kernel<S> {
         None
     }
 
-    fn enable(&mut self, sense: &Sense) -> Result<(), Reject> {
+    /// `detected`: a fault condition found earlier in this same tick (it is
+    /// latched at the end of the tick, so it must block the enable too).
+    fn enable(&mut self, sense: &Sense, detected: Option<FaultReason>) -> Result<(), Reject> {
         match self.mode {
             Mode::Fault | Mode::SoftEstop => {}
             Mode::Stopping { .. } => return Err(Reject::Stopping),
             _ => return Err(Reject::NothingToClear),
         }
-        if let Some(cause) = self.present_cause(sense) {
+        if let Some(cause) = detected.or_else(|| self.present_cause(sense)) {
             return Err(Reject::CauseActive(cause));
         }
         // Encoders whose count was lost restart from their reading; their
@@ -710,6 +791,29 @@ impl<S: Scalar> Kernel<S> {
             self.homing_status = HomingStatus::NotRequested;
         }
         Ok(())
+    }
+}
+
+/// Hashes the state that determines the kernel's future behaviour, for model
+/// checkers: everything but the constant parameters, the tick counter and
+/// the fault's timestamp (both only label reports; no decision reads them).
+/// Available when the scalar is hashable (the fixed-point variant).
+impl<S: Scalar + core::hash::Hash> core::hash::Hash for Kernel<S> {
+    fn hash<H: core::hash::Hasher>(&self, h: &mut H) {
+        self.axes.hash(h);
+        self.mode.hash(h);
+        self.fault.map(|f| f.reason).hash(h);
+        self.homing_status.hash(h);
+        self.run_mask.hash(h);
+        self.run_group.hash(h);
+        self.home_queued.hash(h);
+        self.homed.hash(h);
+        self.boot_ticks.hash(h);
+        self.since_cmd.hash(h);
+        self.armed.hash(h);
+        self.since_target.hash(h);
+        self.intervals.hash(h);
+        self.last_out.hash(h);
     }
 }
 

@@ -55,7 +55,7 @@ pub mod observer;
 pub mod scalar;
 mod types;
 
-pub use kernel::Kernel;
+pub use kernel::{Kernel, TargetLimits};
 pub use scalar::{Fx, Scalar};
 pub use types::*;
 

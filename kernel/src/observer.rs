@@ -24,7 +24,7 @@ pub const fn wrap_delta(prev: u16, now: u16) -> i32 {
 }
 
 /// Multi-turn count of one encoder, initialised from a real reading.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Unwrapper {
     last: u16,
     total: i32,
@@ -70,7 +70,7 @@ pub struct ObserverGains<S> {
 }
 
 /// Alpha-beta observer state: position (rad) and velocity (rad/s).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
 pub struct AlphaBeta<S> {
     /// Estimated position.
     pub x: S,
@@ -91,6 +91,11 @@ impl<S: Scalar> AlphaBeta<S> {
         self.x = xp.plus(g.alpha.times(r));
         self.v = self.v.plus(g.beta_hz.times(r));
         r
+    }
+    /// Prediction only, for a tick without a valid measurement.
+    #[inline]
+    pub fn coast(&mut self, g: &ObserverGains<S>) {
+        self.x = self.x.plus(self.v.times(g.dt));
     }
     /// Moves the estimate by `d` (a new homing zero) without a residual.
     pub fn shift(&mut self, d: S) {

@@ -13,7 +13,7 @@ pub enum EncoderSample {
 }
 
 /// A fault detected by the hardware layer and passed in with the sensors.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum HardwareFault {
     /// The previous tick was still running when this one became due.
     TickOverrun,
@@ -134,7 +134,7 @@ pub enum State {
 }
 
 /// Homing status as the ROS 2 driver understands it (`H0`..`H3`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum HomingStatus {
     /// Never requested (or a per-joint run left some joints unhomed).
     NotRequested = 0,
@@ -146,8 +146,15 @@ pub enum HomingStatus {
     Failed = 3,
 }
 
+impl HomingStatus {
+    /// The digit of the `H<d>` token.
+    pub const fn as_u8(self) -> u8 {
+        self as u8
+    }
+}
+
 /// Why the kernel faulted. The first reason is latched.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FaultReason {
     /// The encoder of `axis` gave no valid reading.
     EncoderLost {
@@ -259,6 +266,9 @@ pub enum Event {
         /// Why.
         reason: Reject,
     },
+    /// `<HOME>` arrived while booting: homing starts as soon as every
+    /// encoder has been read (the ROS 2 driver sends it only once).
+    HomingQueued,
     /// Homing started for the joints in `mask`.
     HomingStarted {
         /// Joints being homed.
@@ -319,6 +329,10 @@ impl Events {
     /// True if there are no events.
     pub fn is_empty(&self) -> bool {
         self.len == 0
+    }
+    /// Number of events.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
     }
 }
 

@@ -39,6 +39,9 @@ both!(
     homing_timeout_reports_h3_and_refuses_motion,
     hardware_overrun_faults,
     homed_axis_leaving_its_limits_faults,
+    enable_is_refused_when_a_fault_is_detected_in_the_same_tick,
+    home_during_boot_is_queued,
+    acceleration_is_limited_in_operational,
 );
 
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
@@ -341,8 +344,14 @@ fn runaway_faults_every_axis_in_the_same_tick<S: Scalar>() {
 }
 
 fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
+    let limit = PAROL6.encoder_invalid_limit;
+    // Up to `limit` lost samples in a row are ridden through (the observer
+    // coasts); one more is a fault that zeroes every axis.
     let mut r = homed::<S>();
     r.plant.encoder_lost[2] = true;
+    for _ in 0..limit {
+        assert_eq!(r.tick(None).status.state, State::Operational);
+    }
     let out = r.tick(None);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::EncoderLost { axis: 2 });
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
@@ -355,11 +364,66 @@ fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
     assert_eq!(out.status.homed & 0b100, 0);
     assert_ne!(out.status.homing, HomingStatus::Complete);
 
+    // A single glitch is skipped; a persistent jump faults.
     let mut r = homed::<S>();
     r.plant.glitch[1] = 1500;
-    let out = r.tick(None);
+    assert_eq!(r.tick(None).status.state, State::Operational);
+    r.plant.glitch[1] = 0;
+    assert_eq!(r.run(5).status.state, State::Operational);
+    r.plant.glitch[1] = 1500;
+    let out = r.run(limit + 1);
     assert!(matches!(out.status.fault.unwrap().reason, FaultReason::EncoderJump { axis: 1, .. }));
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
+}
+
+/// Found by the model check: a fault detected while sensing in the same tick
+/// as an enable must block that enable.
+fn enable_is_refused_when_a_fault_is_detected_in_the_same_tick<S: Scalar>() {
+    let mut r = homed::<S>();
+    r.plant.force_switch = 0b1;
+    assert_eq!(r.tick(None).status.state, State::Fault);
+    r.plant.force_switch = 0;
+    // Encoder J1 jumps persistently: detected while sensing in the enable tick.
+    r.plant.glitch[0] = 1500;
+    r.run(PAROL6.encoder_invalid_limit);
+    let out = r.enable();
+    assert_eq!(out.status.state, State::Fault);
+    assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::CauseActive(_), .. })));
+    assert!(!out.events.iter().any(|e| matches!(e, Event::Enabled(_))));
+}
+
+/// The ROS 2 driver sends `<HOME>` once, possibly while the kernel boots.
+fn home_during_boot_is_queued<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.plant.encoder_lost[4] = true; // J5 not readable yet: still booting
+    let out = r.tick(Some(Request::Home));
+    assert_eq!(out.status.state, State::Boot);
+    assert!(out.events.iter().any(|e| *e == Event::HomingQueued));
+    assert_eq!(out.status.homing, HomingStatus::InProgress);
+    r.plant.encoder_lost[4] = false;
+    let out = r.tick(None);
+    assert_eq!(out.status.state, State::Homing);
+    r.run_until(60_000, |o| o.status.state != State::Homing).unwrap();
+    assert_eq!(r.k.state(), State::Operational);
+}
+
+/// Enable, or a far target, never steps the velocity by more than one tick's
+/// acceleration limit.
+fn acceleration_is_limited_in_operational<S: Scalar>() {
+    let mut r = homed::<S>();
+    let mut p = r.plant.q;
+    p[0] = 1.0; // far away: the control law alone would jump to vmax
+    let mut prev = [0.0f32; AXES];
+    for _ in 0..200 {
+        let out = r.motion(p);
+        for i in 0..AXES {
+            let v = out.act.velocity[i].to_f32();
+            let a_step = PAROL6.joints[i].max_acceleration / PAROL6.tick_hz as f32;
+            assert!((v - prev[i]).abs() <= a_step * 1.001 + 1e-6, "axis {i}: {} -> {v}", prev[i]);
+            prev[i] = v;
+        }
+    }
+    assert!(prev[0] > 2.9, "reaches full speed: {}", prev[0]);
 }
 
 fn fault_keeps_its_first_reason<S: Scalar>() {

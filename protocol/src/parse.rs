@@ -27,9 +27,8 @@
 //! never reach it); `None` from it (does not fit the scalar) is a rejection.
 //! Every accepted target is then checked against the arm's configuration:
 //! `limit_min <= p <= limit_max` and `|v| <= max_velocity`, with the limits
-//! converted by [`Scalar::from_f32`] exactly as the kernel converts them.
+//! checked by the kernel's own [`kernel::TargetLimits`].
 
-use core::cmp::Ordering;
 use kernel::config::{ArmConfig, AXES};
 use kernel::{Authority, EnableCapability, MotionTarget, Request, Scalar};
 
@@ -196,47 +195,28 @@ pub enum ParseError {
     },
 }
 
-/// Joint limits in the scalar type, converted from an [`ArmConfig`] the way
-/// the kernel converts them.
+/// Joint limits in the scalar type: the kernel's [`kernel::TargetLimits`],
+/// with its refusals mapped to parse errors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits<S> {
-    /// Lower position limits (rad).
-    pub min: [S; AXES],
-    /// Upper position limits (rad).
-    pub max: [S; AXES],
-    /// Velocity limits (rad/s).
-    pub vmax: [S; AXES],
+    inner: kernel::TargetLimits<S>,
 }
 
 impl<S: Scalar> Limits<S> {
-    /// The limits of `config`.
+    /// The limits of `config`: the kernel's own [`kernel::TargetLimits`], so
+    /// the parser and the kernel can never disagree on a target.
     pub fn new(config: &ArmConfig) -> Self {
-        Limits {
-            min: config.joints.map(|j| S::from_f32(j.limit_min)),
-            max: config.joints.map(|j| S::from_f32(j.limit_max)),
-            vmax: config.joints.map(|j| S::from_f32(j.max_velocity)),
-        }
+        Limits { inner: kernel::TargetLimits::new(config) }
     }
 
     /// Checks a target: finite, every position within its joint's limits,
-    /// every |velocity| at most its joint's limit. NaN fails every check.
+    /// every |velocity| at most its joint's limit.
     pub fn check(&self, t: &MotionTarget<S>) -> Result<(), ParseError> {
-        let joints = t.position.iter().zip(&t.velocity).zip(self.min.iter().zip(&self.max)).zip(&self.vmax);
-        for (axis, (((p, v), (lo, hi)), vmax)) in (0u8..).zip(joints) {
-            if !(p.is_finite() && v.is_finite()) {
-                return Err(ParseError::NonFinite { field: 0 });
-            }
-            // Written with `partial_cmp` so NaN (no ordering) fails both checks.
-            let at_least = |x: &S, bound: &S| matches!(x.partial_cmp(bound), Some(Ordering::Greater | Ordering::Equal));
-            let at_most = |x: &S, bound: &S| matches!(x.partial_cmp(bound), Some(Ordering::Less | Ordering::Equal));
-            if !(at_least(p, lo) && at_most(p, hi)) {
-                return Err(ParseError::PositionOutOfLimits { axis });
-            }
-            if !at_most(&v.abs(), vmax) {
-                return Err(ParseError::VelocityTooHigh { axis });
-            }
-        }
-        Ok(())
+        self.inner.check(t).map_err(|r| match r {
+            kernel::Reject::PositionOutOfLimits { axis } => ParseError::PositionOutOfLimits { axis },
+            kernel::Reject::VelocityTooHigh { axis } => ParseError::VelocityTooHigh { axis },
+            _ => ParseError::NonFinite { field: 0 },
+        })
     }
 }
 

@@ -155,7 +155,7 @@ fn kernel_reject(out: &mut Line, r: &Reject) -> Result<(), Full> {
 
 /// The line for one kernel event.
 ///
-/// `READY`, `REFUSED <request> <reason>`, `HOMING_STARTED mask=0x..`,
+/// `READY`, `REFUSED <request> <reason>`, `HOMING_QUEUED ...`, `HOMING_STARTED mask=0x..`,
 /// `HOMING_DONE mask=0x..`, `HOMING_FAULT <reason>` (homing timeouts),
 /// `FAULT <reason>` (every other fault), `SOFT_ESTOP since_cmd_ms=<n>`,
 /// `STOPPED`, `ENABLED state=<state>`.
@@ -169,6 +169,7 @@ pub fn event_line(out: &mut Line, e: &Event) -> Result<(), Full> {
             push_byte(out, b' ')?;
             kernel_reject(out, reason)?;
         }
+        Event::HomingQueued => push_str(out, "HOMING_QUEUED waiting for every encoder")?,
         Event::HomingStarted { mask } => {
             push_str(out, "HOMING_STARTED mask=")?;
             push_hex8(out, *mask)?;
@@ -432,6 +433,7 @@ const fn fnv_joint(h: u64, j: &JointConfig) -> u64 {
         max_velocity,
         runaway_velocity,
         kp,
+        max_acceleration,
         limit_min,
         limit_max,
         encoder_reversed,
@@ -444,6 +446,7 @@ const fn fnv_joint(h: u64, j: &JointConfig) -> u64 {
     let h = fnv_f32(h, max_velocity);
     let h = fnv_f32(h, runaway_velocity);
     let h = fnv_f32(h, kp);
+    let h = fnv_f32(h, max_acceleration);
     let h = fnv_f32(h, limit_min);
     let h = fnv_f32(h, limit_max);
     let h = fnv_bool(h, encoder_reversed);
@@ -476,6 +479,7 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
         boot_timeout_ms,
         homing_budget_ms,
         position_margin,
+        encoder_invalid_limit,
     } = *c;
     let h = fnv_u32(FNV_OFFSET, tick_hz);
     let [j1, j2, j3, j4, j5, j6] = joints;
@@ -496,7 +500,8 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let h = fnv_u32(h, segment_max_ms);
     let h = fnv_u32(h, boot_timeout_ms);
     let h = fnv_u32(h, homing_budget_ms);
-    fnv_f32(h, position_margin)
+    let h = fnv_f32(h, position_margin);
+    fnv_u32(h, encoder_invalid_limit)
 }
 
 #[cfg(test)]
@@ -559,6 +564,7 @@ mod tests {
             Box::new(|c| c.boot_timeout_ms += 1),
             Box::new(|c| c.homing_budget_ms += 1),
             Box::new(|c| c.position_margin += 0.01),
+            Box::new(|c| c.encoder_invalid_limit += 1),
         ];
         let mut seen = std::collections::HashSet::new();
         seen.insert(FP);
@@ -575,6 +581,7 @@ mod tests {
                 Box::new(|j| j.max_velocity += 0.1),
                 Box::new(|j| j.runaway_velocity += 0.1),
                 Box::new(|j| j.kp += 0.1),
+                Box::new(|j| j.max_acceleration += 0.1),
                 Box::new(|j| j.limit_min -= 0.001),
                 Box::new(|j| j.limit_max += 0.001),
                 Box::new(|j| j.encoder_reversed ^= true),

@@ -269,30 +269,25 @@ fn restarted_driver_is_resynchronised() {
     assert_eq!((c.seq.behind, c.seq.duplicates, c.seq.gap_resyncs, c.seq.jump_resyncs, c.seq.resets), (1, 1, 1, 1, 2));
 }
 
-/// Documents a kernel-side edge (reported to the kernel's owner): the Fx
-/// limits are converted from the configuration's f32 values, and for J5
-/// (+-2.1) and J3 (1.29) that puts them a few 2^-24 inside the decimal limit,
-/// so a frame exactly at those limits is accepted as f32 and rejected as Fx,
-/// by this parser and by `Kernel::validate` alike.
+/// A frame exactly at a joint limit is accepted by both numeric variants,
+/// and the kernel agrees (its `TargetLimits` widen each f32 limit by one f32
+/// ulp before converting; `Fx(2.1f32)` alone would lie 2 LSB inside 2.1).
 #[test]
-fn fixed_point_limit_edge_is_consistent_with_the_kernel() {
-    let mut v = vec!["0.000"; 12];
-    v[8] = "-2.100"; // driver: p5
-    let line = frame("1", &v);
-    assert!(parse::<f32>(&line).is_ok());
-    assert_eq!(parse::<Fx>(&line), Err(ParseError::PositionOutOfLimits { axis: 4 }));
-    v[8] = "-2.099";
-    assert!(parse::<Fx>(&frame("1", &v)).is_ok());
-    let mut v = vec!["0.000"; 12];
-    v[4] = "1.290"; // driver: p3
-    assert_eq!(parse::<Fx>(&frame("1", &v)), Err(ParseError::PositionOutOfLimits { axis: 2 }));
-    // the kernel agrees
+fn frames_exactly_at_the_limits_are_accepted_by_both_variants() {
     let (k, _) = kernel::KernelFx::new(&PAROL6);
-    if let Ok(Command::Motion { target, .. }) = parse::<f32>(&frame("1", &v)) {
-        let tx = kernel::MotionTarget { position: target.position.map(Fx::from_f32), velocity: [Fx::ZERO; 6] };
-        let exact = Fx::parse_decimal("1.290").unwrap();
-        let mut t = tx;
-        t.position[2] = exact;
-        assert!(k.validate(&t).is_err());
+    for (field, text) in [(8, "-2.100"), (8, "2.100"), (4, "1.290"), (4, "-2.000"), (0, "-1.700"), (6, "-2.529")] {
+        let mut v = vec!["0.000"; 12];
+        v[field] = text;
+        let line = frame("1", &v);
+        assert!(parse::<f32>(&line).is_ok(), "{text}");
+        match parse::<Fx>(&line) {
+            Ok(Command::Motion { target, .. }) => assert!(k.validate(&target).is_ok(), "{text}"),
+            other => panic!("{text}: {other:?}"),
+        }
     }
+    // One printed step beyond is still rejected.
+    let mut v = vec!["0.000"; 12];
+    v[8] = "-2.101";
+    assert_eq!(parse::<Fx>(&frame("1", &v)), Err(ParseError::PositionOutOfLimits { axis: 4 }));
+    assert_eq!(parse::<f32>(&frame("1", &v)), Err(ParseError::PositionOutOfLimits { axis: 4 }));
 }
