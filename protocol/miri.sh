@@ -14,7 +14,7 @@ if ! rustup +nightly component list --installed | grep -q '^miri'; then
     rustup +nightly component add miri rust-src
 fi
 
-export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-/work/target-proto}"
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target/miri}"
 # Several seeds so the two-thread test sees different interleavings.
 for seed in 0 1 2 3; do
     MIRIFLAGS="-Zmiri-seed=$seed" cargo +nightly miri test -p protocol queue

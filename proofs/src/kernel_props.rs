@@ -78,16 +78,32 @@ fn invariants<S: Scalar>(o: &TickOutput<S>) {
 fn operational_tick<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let req = if kani::any() { Some(Request::Motion(any_target::<S>())) } else { None };
-    let o = k.tick(&any_sense(), req);
+    let sense = any_sense();
+    let o = k.tick(&sense, req);
     kani::cover!(o.status.state == State::Fault, "a fault");
     kani::cover!(o.status.state == State::Operational, "still operational");
     invariants(&o);
+    // SR-10, SR-21: a pressed switch or a hardware fault in Operational faults.
+    if sense.limits & 0x3f != 0 || sense.hardware_fault.is_some() {
+        assert!(o.status.state == State::Fault);
+    }
     // A second tick: the fault latched, the first reason kept (SR-5).
     let first = o.status.fault;
     let o2 = k.tick(&any_sense(), None);
     invariants(&o2);
     if let Some(f) = first {
         assert!(o2.status.fault == Some(f));
+    }
+    // SR-25: in Operational the output changes by at most one tick's
+    // acceleration limit.
+    if o.status.state == State::Operational && o2.status.state == State::Operational {
+        for i in 0..AXES {
+            let j = &PROOF_CONFIG.joints[i];
+            let step = S::from_f32(j.max_acceleration / PROOF_CONFIG.tick_hz as f32);
+            let dv = o2.act.velocity[i].minus(o.act.velocity[i]).abs();
+            // One rounding unit of slack for f32 (|v| <= 6: ulp 4.8e-7).
+            assert!(dv <= step.plus(S::from_f32(1e-6)));
+        }
     }
 }
 
@@ -254,6 +270,37 @@ fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
 #[kani::unwind(41)]
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {
     enable::<Fx>();
+}
+
+/// SR-11: up to `encoder_invalid_limit` lost samples in a row are ridden
+/// through; one more faults every axis.
+fn encoder_loss<S: Sym>() {
+    let (mut k, _) = operational::<S>();
+    let axis = usize::from(kani::any::<u8>() % AXES as u8);
+    kani::cover!(axis == AXES - 1, "last axis");
+    let mut s = still(0);
+    s.encoders[axis] = EncoderSample::Lost;
+    // Bound: encoder_invalid_limit (2) + 1 ticks.
+    for _ in 0..PROOF_CONFIG.encoder_invalid_limit {
+        let o = k.tick(&s, None);
+        invariants(&o);
+        assert!(o.status.state == State::Operational);
+    }
+    let o = k.tick(&s, None);
+    invariants(&o);
+    assert!(o.status.state == State::Fault);
+    assert!(o.status.fault.map(|f| f.reason) == Some(kernel::FaultReason::EncoderLost { axis: axis as u8 }));
+}
+
+#[kani::proof]
+#[kani::unwind(41)]
+fn encoder_loss_beyond_the_tolerance_faults_f32() {
+    encoder_loss::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(41)]
+fn encoder_loss_beyond_the_tolerance_faults_fx() {
+    encoder_loss::<Fx>();
 }
 
 /// SR-14: homing can be repeated: a second `<HOME>` from Operational runs

@@ -21,3 +21,5 @@ pub mod setup;
 mod kernel_props;
 #[cfg(any(kani, test))]
 mod numeric;
+#[cfg(any(kani, test))]
+mod wire;

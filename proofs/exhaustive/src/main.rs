@@ -187,6 +187,17 @@ fn main() {
     for s in &failed {
         println!("VIOLATED {} {}: {}", s.requirement, s.name, s.counterexample.as_deref().unwrap_or(""));
     }
+    if let Ok(dir) = std::env::var("EVIDENCE_DIR") {
+        let mut tsv = String::new();
+        for s in &results {
+            let ok = if s.counterexample.is_none() { "holds" } else { "VIOLATED" };
+            tsv.push_str(&format!("{}\texhaustive\t{}\t{}\t{}\n", s.requirement, s.cases, ok, s.name));
+        }
+        if let Err(e) = std::fs::write(std::path::Path::new(&dir).join("exhaustive.tsv"), tsv) {
+            eprintln!("exhaustive: cannot write the evidence file in {dir}: {e}");
+            std::process::exit(1);
+        }
+    }
     if !failed.is_empty() {
         std::process::exit(1);
     }
