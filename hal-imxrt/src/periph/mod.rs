@@ -17,8 +17,10 @@
 pub mod clocks;
 pub mod cycles;
 pub mod encoder;
+pub mod frame_capture;
 pub mod gpio;
 pub mod iomux;
+pub mod panic_stop;
 pub mod step;
 pub mod tick;
 pub mod uart;

@@ -4,6 +4,7 @@
 pub mod clock;
 pub mod debounce;
 pub mod encoder;
+pub mod frame;
 pub mod pins;
 pub mod step;
 pub mod uart;

@@ -1,0 +1,279 @@
+//! Pure glue of the PAROL6 firmware image, host-tested.
+//!
+//! The image itself (`src/main.rs`, `src/target/`) is built only for
+//! `thumbv7em-none-eabihf` by `firmware/build.sh`. Everything here is
+//! arithmetic or policy without registers, used by the tick handler and
+//! the main loop:
+//!
+//! * [`sense`]: HAL readings -> [`kernel::Sense`];
+//! * [`act`]: kernel step rates -> `hal_imxrt` step commands (all or none);
+//! * [`RequestGate`]: one command per tick, HOME held while the kernel boots
+//!   (the simulator's composition-root policy, mirrored);
+//! * [`boot_fault`]: reset cause and self-test -> [`kernel::HardwareFault`];
+//! * [`cycles_to_us`]: tick duration for the configurator line.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+use hal_imxrt::pure::debounce::LimitState;
+use hal_imxrt::pure::encoder::EncoderReading;
+use hal_imxrt::pure::step::{step_command, StepCommand, StepConfig};
+use kernel::config::AXES;
+use kernel::{EncoderSample, HardwareFault, Sense};
+use protocol::Command;
+
+/// Firmware version string for the banner.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Command queue slots (as the simulator's root).
+pub const CMD_SLOTS: usize = 8;
+/// Telemetry queue slots.
+pub const TEL_SLOTS: usize = 16;
+
+/// HAL readings -> kernel sense. A limit input whose debounce has not yet
+/// confirmed a level (`Unknown`) counts as pressed (not safe to move), as in
+/// the simulator's plant.
+pub fn sense(
+    encoders: &[EncoderReading; AXES],
+    limits: &[LimitState; AXES],
+    hardware_fault: Option<HardwareFault>,
+) -> Sense {
+    let mut e = [EncoderSample::Lost; AXES];
+    for (o, r) in e.iter_mut().zip(encoders.iter()) {
+        *o = match r {
+            EncoderReading::Count(c) => EncoderSample::Count(*c),
+            EncoderReading::Lost(_) => EncoderSample::Lost,
+        };
+    }
+    let mut bits = 0u8;
+    for (i, l) in limits.iter().enumerate() {
+        if matches!(l, LimitState::Pressed | LimitState::Unknown) {
+            bits |= 1u8 << (i & 7);
+        }
+    }
+    Sense { encoders: e, limits: bits, hardware_fault }
+}
+
+/// Kernel step rates (steps/s, signed) -> step generator commands, all six
+/// or none: if any axis cannot be programmed (rate above the HAL's maximum,
+/// which a consistent configuration never asks for), every axis gets
+/// `Stop` and the first such axis is returned, to be reported to the kernel
+/// as [`HardwareFault::Driver`] on the next tick.
+pub fn act(rates: &[i32; AXES], cfg: &StepConfig) -> ([StepCommand; AXES], Option<u8>) {
+    let mut out = [StepCommand::Stop; AXES];
+    for (i, (o, &r)) in out.iter_mut().zip(rates.iter()).enumerate() {
+        match step_command(r.saturating_mul(1000), cfg) {
+            Ok(c) => *o = c,
+            Err(_) => return ([StepCommand::Stop; AXES], Some(i as u8)),
+        }
+    }
+    (out, None)
+}
+
+/// CPU cycles (600 MHz) -> whole microseconds.
+pub const fn cycles_to_us(cycles: u32) -> u32 {
+    cycles / (hal_imxrt::pure::clock::CPU_HZ / 1_000_000)
+}
+
+/// Takes at most one command per tick from the queue; a `HOME`/`HOMEn`
+/// that arrives while the kernel is in `Boot` is held (in order, blocking
+/// the queue behind it) until `Boot` ends instead of being refused — the
+/// ROS 2 driver sends its single `<HOME>` as soon as it sees the first line.
+#[derive(Debug, Default)]
+pub struct RequestGate<S> {
+    deferred: Option<Command<S>>,
+}
+
+impl<S: Copy> RequestGate<S> {
+    /// Nothing held.
+    pub const fn new() -> Self {
+        Self { deferred: None }
+    }
+
+    /// The command for this tick. `recv` pops the queue and is called at
+    /// most once.
+    pub fn next(&mut self, booting: bool, recv: impl FnOnce() -> Option<Command<S>>) -> Option<Command<S>> {
+        match self.deferred.take() {
+            Some(d) if booting => {
+                self.deferred = Some(d);
+                None
+            }
+            Some(d) => Some(d),
+            None => match recv() {
+                Some(c @ (Command::Home | Command::HomeJoint(_))) if booting => {
+                    self.deferred = Some(c);
+                    None
+                }
+                c => c,
+            },
+        }
+    }
+}
+
+/// Boot-fault codes carried in [`HardwareFault::SelfTest`].
+pub mod code {
+    /// Encoder self-test failed; the low 6 bits are the failing axes.
+    pub const ENCODER: u8 = 0x40;
+    /// The previous run ended in a panic (marker survived the reset).
+    pub const PREVIOUS_PANIC: u8 = 0x80;
+    /// The previous run was reset by the watchdog (the tick stopped).
+    pub const WATCHDOG_RESET: u8 = 0x81;
+}
+
+/// Value of the panic marker word kept in non-initialised RAM.
+pub const PANIC_MARKER: u32 = 0x5041_4E43; // "PANC"
+
+/// The fault to hand the kernel with the first sense, if any: a previous
+/// panic beats a watchdog reset beats an encoder self-test failure. A
+/// latched fault needs the host's `<ENABLE>` (and then re-homing), so a
+/// controller that crashed never resumes on its own — even if a host sends
+/// `<HOME>` as soon as it sees the boot banner.
+pub fn boot_fault(panic_marker: u32, watchdog_reset: bool, encoder_fail_mask: u8) -> Option<HardwareFault> {
+    if panic_marker == PANIC_MARKER {
+        Some(HardwareFault::SelfTest(code::PREVIOUS_PANIC))
+    } else if watchdog_reset {
+        Some(HardwareFault::SelfTest(code::WATCHDOG_RESET))
+    } else if encoder_fail_mask & 0x3F != 0 {
+        Some(HardwareFault::SelfTest(code::ENCODER | (encoder_fail_mask & 0x3F)))
+    } else {
+        None
+    }
+}
+
+/// Which axes failed the boot self-test: an axis passes if the last of its
+/// readings is a count.
+pub fn encoder_self_test(last: &[EncoderReading; AXES]) -> u8 {
+    let mut mask = 0u8;
+    for (i, r) in last.iter().enumerate() {
+        if r.count().is_none() {
+            mask |= 1u8 << (i & 7);
+        }
+    }
+    mask
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hal_imxrt::pure::encoder::LossReason;
+    use hal_imxrt::pure::step::{achieved_rate_mhz, Direction};
+    use kernel::config::PAROL6;
+
+    #[test]
+    fn sense_maps_counts_losses_and_limits() {
+        let enc = [
+            EncoderReading::Count(0),
+            EncoderReading::Count(4095),
+            EncoderReading::Lost(LossReason::NoSignal),
+            EncoderReading::Count(17),
+            EncoderReading::Lost(LossReason::Acquiring),
+            EncoderReading::Count(2048),
+        ];
+        let lim = [
+            LimitState::Released,
+            LimitState::Pressed,
+            LimitState::Unknown,
+            LimitState::Released,
+            LimitState::Released,
+            LimitState::Pressed,
+        ];
+        let s = sense(&enc, &lim, Some(HardwareFault::TickOverrun));
+        assert_eq!(
+            s.encoders,
+            [
+                EncoderSample::Count(0),
+                EncoderSample::Count(4095),
+                EncoderSample::Lost,
+                EncoderSample::Count(17),
+                EncoderSample::Lost,
+                EncoderSample::Count(2048)
+            ]
+        );
+        assert_eq!(s.limits, 0b10_0110);
+        assert_eq!(s.hardware_fault, Some(HardwareFault::TickOverrun));
+    }
+
+    #[test]
+    fn act_maps_every_axis_and_sign() {
+        let cfg = StepConfig::DEFAULT;
+        let rates = [0, 19, 20, -20, 110_592, -50_000];
+        let (cmds, err) = act(&rates, &cfg);
+        assert_eq!(err, None);
+        assert_eq!(cmds[0], StepCommand::Stop);
+        assert_eq!(cmds[1], StepCommand::Stop); // below the 20 steps/s minimum
+        for (i, &r) in rates.iter().enumerate().skip(2) {
+            let got = achieved_rate_mhz(&cmds[i], &cfg);
+            let want = i64::from(r) * 1000;
+            assert!((got - want).abs() * 2_000 <= want.abs(), "axis {i}: {got} vs {want}"); // <= 0.05 %
+            let StepCommand::Run(t) = cmds[i] else { panic!() };
+            assert_eq!(t.dir == Direction::Positive, r > 0);
+        }
+    }
+
+    #[test]
+    fn act_is_all_or_nothing() {
+        let cfg = StepConfig::DEFAULT;
+        let (cmds, err) = act(&[1000, 1000, 1000, 300_000, 1000, 1000], &cfg);
+        assert_eq!(err, Some(3));
+        assert!(cmds.iter().all(|c| *c == StepCommand::Stop));
+        let (cmds, err) = act(&[i32::MIN, 0, 0, 0, 0, 0], &cfg);
+        assert_eq!(err, Some(0));
+        assert!(cmds.iter().all(|c| *c == StepCommand::Stop));
+    }
+
+    #[test]
+    fn kernel_max_rates_fit_the_step_generator() {
+        // Every joint's max velocity, in steps/s, must be programmable.
+        for j in PAROL6.joints.iter() {
+            let max = (f64::from(j.max_velocity) * j.steps_per_rad()).ceil() as i32;
+            let (_, err) = act(&[max, -max, 0, 0, 0, 0], &StepConfig::DEFAULT);
+            assert_eq!(err, None, "{max}");
+        }
+    }
+
+    #[test]
+    fn cycles_to_us_is_floor() {
+        assert_eq!(cycles_to_us(0), 0);
+        assert_eq!(cycles_to_us(599), 0);
+        assert_eq!(cycles_to_us(600), 1);
+        assert_eq!(cycles_to_us(600_000), 1000);
+        assert_eq!(cycles_to_us(u32::MAX), 7_158_278);
+    }
+
+    #[test]
+    fn home_during_boot_is_held_then_delivered() {
+        let mut g: RequestGate<f32> = RequestGate::new();
+        let mut q = vec![Command::Home, Command::Enable];
+        let pop = |q: &mut Vec<Command<f32>>| if q.is_empty() { None } else { Some(q.remove(0)) };
+        assert_eq!(g.next(true, || pop(&mut q)), None); // HOME held
+        assert_eq!(g.next(true, || pop(&mut q)), None); // still booting: queue blocked
+        assert_eq!(q.len(), 1);
+        assert!(matches!(g.next(false, || pop(&mut q)), Some(Command::Home)));
+        assert!(matches!(g.next(false, || pop(&mut q)), Some(Command::Enable)));
+        assert_eq!(g.next(false, || pop(&mut q)), None);
+    }
+
+    #[test]
+    fn enable_during_boot_passes_through() {
+        let mut g: RequestGate<f32> = RequestGate::new();
+        assert!(matches!(g.next(true, || Some(Command::Enable)), Some(Command::Enable)));
+    }
+
+    #[test]
+    fn boot_fault_priorities() {
+        assert_eq!(boot_fault(0, false, 0), None);
+        assert_eq!(boot_fault(PANIC_MARKER, true, 0x3F), Some(HardwareFault::SelfTest(code::PREVIOUS_PANIC)));
+        assert_eq!(boot_fault(1, true, 0x3F), Some(HardwareFault::SelfTest(code::WATCHDOG_RESET)));
+        assert_eq!(boot_fault(0, false, 0b10_0001), Some(HardwareFault::SelfTest(0x40 | 0b10_0001)));
+        assert_eq!(boot_fault(0, false, 0xC0), None);
+    }
+
+    #[test]
+    fn self_test_mask() {
+        let mut r = [EncoderReading::Count(5); AXES];
+        assert_eq!(encoder_self_test(&r), 0);
+        r[0] = EncoderReading::Lost(LossReason::NoSignal);
+        r[5] = EncoderReading::Lost(LossReason::Acquiring);
+        assert_eq!(encoder_self_test(&r), 0b10_0001);
+    }
+}
