@@ -203,9 +203,8 @@ impl Model for Supervisor {
         let Action { req, perturb, arrive } = a;
         let before = s.k.state();
         let sense = self.sense(s, perturb, arrive);
-        let cause = sense.limits & 0x3f != 0
-            || sense.hardware_fault.is_some()
-            || sense.encoders.contains(&EncoderSample::Lost);
+        let cause =
+            sense.limits & 0x3f != 0 || sense.hardware_fault.is_some() || sense.encoders.contains(&EncoderSample::Lost);
         let o = n.k.tick(&sense, req.map(|r| self.request(r)));
         let out = o.act.velocity;
         let st = o.status.state;
