@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Kani harnesses of proofs/ for CI (Kani cannot run on the development
+# machines: see ../shared/spec/VERIFICATION.md and SAFETY.md).
+#
+#   ci/kani.sh list               harness names (every `#[kani::proof]` fn in proofs/src/*.rs)
+#   ci/kani.sh run NAME...        cargo kani on each named harness, one at a time,
+#                                 each under a wall-clock limit of $KANI_HARNESS_TIMEOUT
+#                                 (default 30m); fails if any harness fails or times out
+#   ci/kani.sh inventory [DIR]    `cargo kani list` output (the proof inventory) into DIR
+#                                 (default kani-inventory/), plus this script's own list
+#
+# `run` and `inventory` need cargo-kani on PATH (the workflow gets it from
+# model-checking/kani-github-action); `list` needs only bash and awk.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+list() {
+    # The first `fn` after each `#[kani::proof]`, skipping other attributes.
+    awk '
+        /^[[:space:]]*#\[kani::proof\]/ { want = 1; next }
+        want && match($0, /fn[[:space:]]+[A-Za-z_][A-Za-z0-9_]*/) {
+            s = substr($0, RSTART, RLENGTH); sub(/^fn[[:space:]]+/, "", s); print s; want = 0
+        }
+    ' proofs/src/*.rs | sort
+}
+
+case "${1:-}" in
+list)
+    list
+    ;;
+run)
+    shift
+    [ "$#" -gt 0 ] || { echo "usage: ci/kani.sh run NAME..." >&2; exit 2; }
+    known="$(list)"
+    timeout_s="${KANI_HARNESS_TIMEOUT:-30m}"
+    failed=()
+    for h in "$@"; do
+        if ! grep -qx -- "$h" <<<"$known"; then
+            echo "ci/kani.sh: no #[kani::proof] fn named $h in proofs/src" >&2
+            failed+=("$h (unknown)")
+            continue
+        fi
+        echo "::group::cargo kani --harness $h (limit $timeout_s)"
+        start=$(date +%s)
+        if timeout --signal=TERM --kill-after=60 "$timeout_s" cargo kani -p proofs --harness "$h" --exact; then
+            status=ok
+        else
+            rc=$?
+            if [ "$rc" -eq 124 ]; then status="TIMEOUT after $timeout_s"; else status="FAILED (exit $rc)"; fi
+            failed+=("$h: $status")
+        fi
+        echo "::endgroup::"
+        echo "$h: $status in $(( $(date +%s) - start )) s"
+    done
+    if [ "${#failed[@]}" -gt 0 ]; then
+        printf 'failed: %s\n' "${failed[@]}" >&2
+        exit 1
+    fi
+    ;;
+inventory)
+    dir="${2:-kani-inventory}"
+    mkdir -p "$dir"
+    list >"$dir/harnesses.txt"
+    (cd proofs && cargo kani list --format pretty) | tee "$dir/cargo-kani-list.txt"
+    (cd proofs && cargo kani list --format json && mv kani-list.json "../$dir/") || true
+    ;;
+*)
+    echo "usage: ci/kani.sh list | run NAME... | inventory [DIR]" >&2
+    exit 2
+    ;;
+esac
