@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Build the PAROL6 Teensy 4.1 image and check it.
+#
+#   firmware/build.sh            # release image + sizes + tick stack + panic check + reproducibility
+#   FEATURES=serial1 firmware/build.sh   # protocol on Serial1 (pins 0/1) instead of USB CDC
+#   SKIP_REPRO=1 firmware/build.sh       # skip the second (reproducibility) build
+#
+# Writes target/firmware/parol6.elf and parol6.hex (Intel HEX for
+# `teensy_loader_cli --mcu=TEENSY41`). Exits non-zero if the build fails, if
+# a panic path is reachable from the tick handler, or if the two builds differ.
+set -euo pipefail
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$ROOT"
+TARGET=thumbv7em-none-eabihf
+OUT="$ROOT/target/firmware"
+FEATURES="${FEATURES:-}"
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target/fw-build}"
+mkdir -p "$OUT"
+
+# --- tools (fresh machine): the pinned toolchain, its thumb target, llvm-tools;
+# nightly + thumb target for the stack-size build (optional).
+TC="$(sed -n 's/^channel *= *"\(.*\)"/\1/p' rust-toolchain.toml)"
+rustup toolchain install "$TC" --profile minimal >/dev/null 2>&1 || true
+rustup target add --toolchain "$TC" "$TARGET" >/dev/null
+rustup component add --toolchain "$TC" llvm-tools >/dev/null
+HOST="$(rustc +"$TC" -vV | sed -n 's/^host: //p')"
+BIN="$(rustc +"$TC" --print sysroot)/lib/rustlib/$HOST/bin"
+OBJCOPY="$BIN/llvm-objcopy"; SIZE="$BIN/llvm-size"; OBJDUMP="$BIN/llvm-objdump"
+HAVE_NIGHTLY=0
+if rustup run nightly rustc -V >/dev/null 2>&1 || rustup toolchain install nightly --profile minimal >/dev/null 2>&1; then
+  rustup target add --toolchain nightly "$TARGET" >/dev/null 2>&1 && HAVE_NIGHTLY=1
+fi
+
+build() { # $1 = workspace root, $2 = target dir
+  (cd "$1" && CARGO_TARGET_DIR="$2" RUSTFLAGS="--remap-path-prefix=$1=/parol6" \
+     cargo +"$TC" build --locked --release -p firmware --bin parol6 --target "$TARGET" \
+       ${FEATURES:+--features "$FEATURES"})
+}
+
+echo "== build (rustc $TC, release, $TARGET${FEATURES:+, features=$FEATURES})"
+build "$ROOT" "$CARGO_TARGET_DIR"
+ELF="$CARGO_TARGET_DIR/$TARGET/release/parol6"
+cp "$ELF" "$OUT/parol6.elf"
+"$OBJCOPY" -O ihex "$OUT/parol6.elf" "$OUT/parol6.hex"
+echo "wrote $OUT/parol6.elf and $OUT/parol6.hex"
+
+echo "== memory use"
+"$SIZE" -A -x "$OUT/parol6.elf" | grep -vE '^\.(debug|comment|ARM\.attributes|stack_sizes|symtab|strtab|shstrtab)' || true
+python3 - "$SIZE" "$OUT/parol6.elf" <<'PY'
+import subprocess, sys
+rows = subprocess.run([sys.argv[1], "-A", "-d", sys.argv[2]], capture_output=True, text=True, check=True).stdout.split("\n")
+sec = {}
+for r in rows:
+    p = r.split()
+    if len(p) == 3 and p[0].startswith(".") and p[1].isdigit():
+        sec[p[0]] = (int(p[1]), int(p[2]))
+def s(n): return sec.get(n, (0, 0))[0]
+# teensy4-bsp/imxrt-rt layout: boot header + vectors/text/rodata/data images
+# in FlexSPI flash; text copied to ITCM, data/bss/stack/vectors in DTCM.
+flash = sum(v[0] for k, v in sec.items() if k in (".boot", ".vector_table", ".text", ".rodata", ".data", ".xip", ".fcb", ".ivt", ".boot_data", ".dcd") or k.startswith(".boot"))
+itcm = s(".text")
+print(f"flash image (loadable bytes): {flash} of 8126464 (Teensy 4.1 = 8 MiB, 1984 KiB linked)")
+print(f"ITCM code: {itcm} B   DTCM: .data {s('.data')} + .bss {s('.bss')} + stack {s('.stack')} + vectors {s('.vector_table')} B")
+print(f"OCRAM: .rodata {s('.rodata')} (copied from flash) + .uninit {s('.uninit')} + heap {s('.heap')} (unused) B")
+PY
+
+echo "== tick handler: panic paths and stack"
+STACK_ELF=""
+if [ "$HAVE_NIGHTLY" = 1 ]; then
+  SDIR="$CARGO_TARGET_DIR/stack-sizes"
+  if CARGO_TARGET_DIR="$SDIR" RUSTFLAGS="-Z emit-stack-sizes" \
+       cargo +nightly build --release -p firmware --bin parol6 --target "$TARGET" \
+         ${FEATURES:+--features "$FEATURES"} >/dev/null 2>"$OUT/stack-build.log"; then
+    STACK_ELF="$SDIR/$TARGET/release/parol6"
+  else
+    echo "(nightly stack-size build failed; see $OUT/stack-build.log)"
+  fi
+else
+  echo "(no nightly toolchain: stack not measured)"
+fi
+PANIC_RC=0
+python3 "$ROOT/firmware/tools/tick_analysis.py" "$OBJDUMP" "$OUT/parol6.elf" PIT $STACK_ELF || PANIC_RC=$?
+
+REPRO_RC=0
+if [ -z "${SKIP_REPRO:-}" ]; then
+  echo "== reproducibility: second build in another directory"
+  TMP="$(mktemp -d /tmp/parol6-repro.XXXXXX)"
+  tar -C "$ROOT" --exclude=./target --exclude=.git -cf - . | tar -C "$TMP" -xf -
+  build "$TMP" "$TMP/target" >/dev/null 2>"$OUT/repro-build.log" || { echo "second build failed (see $OUT/repro-build.log)"; REPRO_RC=1; }
+  if [ "$REPRO_RC" = 0 ]; then
+    "$OBJCOPY" -O ihex "$TMP/target/$TARGET/release/parol6" "$OUT/parol6.repro.hex"
+    H1="$(sha256sum "$OUT/parol6.hex" | cut -d' ' -f1)"; H2="$(sha256sum "$OUT/parol6.repro.hex" | cut -d' ' -f1)"
+    echo "sha256 $ROOT build: $H1"
+    echo "sha256 $TMP build: $H2"
+    if [ "$H1" = "$H2" ]; then echo "reproducible: yes"; else echo "reproducible: NO"; REPRO_RC=1; fi
+  fi
+  rm -rf "$TMP"
+fi
+
+if [ "$PANIC_RC" != 0 ]; then echo "FAIL: panic path reachable from the tick handler (see above)"; fi
+[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ]
