@@ -148,7 +148,7 @@ impl<S: Scalar> Params<S> {
             stop_ticks,
             inv_stop: S::from_f32(1.0 / stop_ticks as f32),
             seg_min: ms_to_ticks(c.segment_min_ms, c.tick_hz).max(1),
-            seg_max: ms_to_ticks(c.segment_max_ms, c.tick_hz).clamp(1, MAX_SEGMENT_TICKS),
+            seg_max: ms_to_ticks(c.segment_max_ms, c.tick_hz).max(1).min(MAX_SEGMENT_TICKS),
             recip: core::array::from_fn(|n| if n == 0 { S::ZERO } else { S::from_f32(1.0 / n as f32) }),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
             invalid_limit: c.encoder_invalid_limit,
@@ -702,7 +702,9 @@ impl<S: Scalar> Kernel<S> {
         let n = match self.since_target {
             None => self.p.seg_max,
             Some(gap) => {
-                let gap = gap.clamp(self.p.seg_min, self.p.seg_max);
+                // max/min rather than `clamp`, which panics if min > max: the
+                // tick must have no panic path even for a bad configuration.
+                let gap = gap.max(self.p.seg_min).min(self.p.seg_max);
                 let [_, a, b, c] = self.intervals;
                 self.intervals = if self.intervals == [0; 4] { [gap; 4] } else { [a, b, c, gap] };
                 median4(self.intervals)

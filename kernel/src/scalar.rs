@@ -293,7 +293,8 @@ impl Scalar for Fx {
         // |n| < 2^31 and |k| < 2^40 for any sane scale would overflow i64 only
         // for absurd inputs, so use i128 to be total; the shift floors.
         let p = i128::from(n).saturating_mul(i128::from(k.0)) >> WIDE_EXTRA;
-        let bits = p.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i32;
+        // max/min, not `clamp` (which has a panic path for min > max).
+        let bits = p.max(i128::from(i32::MIN)).min(i128::from(i32::MAX)) as i32;
         Fx::from_bits(bits)
     }
     #[inline(always)]

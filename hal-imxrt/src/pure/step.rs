@@ -147,7 +147,11 @@ pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand
     let mut p: u8 = 0;
     while p <= 7 {
         let den = mag as u64 * (1u64 << p);
-        let period = (clk_x1000 + den / 2) / den; // rounded
+        // rounded; `checked_div` keeps the tick free of a panic path (a zero
+        // rate is only possible with min_rate_mhz = 0, and means "stop")
+        let Some(period) = (clk_x1000 + den / 2).checked_div(den) else {
+            return Ok(StepCommand::Stop);
+        };
         if period <= 65_535 {
             let pulse = counts_ceil(cfg.pulse_ns, cfg.timer_hz >> p);
             let pulse = if pulse == 0 { 1 } else { pulse };
