@@ -37,6 +37,12 @@ KANI_SHIM_REPORT="$EVIDENCE_DIR/shim.tsv" cargo test --workspace --locked
 step "kernel and protocol for the Cortex-M7"
 cargo build -p kernel -p protocol --target thumbv7em-none-eabihf --release --locked
 
+step "firmware image: .elf/.hex, sizes, tick stack, no panic path from the tick, reproducible"
+firmware/build.sh
+
+step "Cortex-M7 emulation (QEMU mps2-an500): host vs target traces bit for bit"
+EMU_TARGET_DIR="$ROOT/target/emu" emu/test.sh
+
 if [ "${QUICK:-0}" != "1" ]; then
     step "exhaustive sweeps (every I8F24 / f32 bit pattern of the per-axis functions)"
     cargo run -p exhaustive --release --locked --bin exhaustive
