@@ -239,6 +239,24 @@ fn frames(data: &[u8]) -> Result<Vec<(usize, bool)>, String> {
     Ok(v)
 }
 
+/// Replays a scenario on the host: the state after each tick, and for each
+/// frame whether the parser accepted it as a motion frame.
+fn classify<S: Bits>(data: &[u8]) -> Result<(Vec<State>, Vec<bool>), String> {
+    let mut rd = Reader::new(data).map_err(|e| format!("{e:?}"))?;
+    let (mut k, authority) = Kernel::<S>::new(&PAROL6);
+    let parser = Parser::<S>::new(&PAROL6, DialectLock::Auto);
+    let (mut states, mut motion_ok) = (Vec::new(), Vec::new());
+    while let Some(t) = rd.next_tick().map_err(|e| format!("{e:?}"))? {
+        let req = t.frame.and_then(|f| {
+            let r = parser.parse(f);
+            motion_ok.push(matches!(r, Ok(protocol::Command::Motion { .. })));
+            r.ok().map(|c| c.into_request(&authority))
+        });
+        states.push(k.tick(&t.sense, req).status.state);
+    }
+    Ok((states, motion_ok))
+}
+
 #[derive(Debug)]
 struct Stats {
     n: usize,
@@ -298,21 +316,46 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
         }
     };
     let mut per_byte = String::new();
+    let mut per_state = String::new();
     for (var, data) in [("f32", &f32s), ("fx", &fxs)] {
         let ticks = ch.get(format!("tick_{var}").as_str()).cloned().unwrap_or_default();
         let n_ticks = Reader::new(data).map_err(|e| format!("{e:?}"))?.ticks as usize;
         if ticks.len() != n_ticks {
             return Err(format!("{var}: {} tick samples, scenario has {n_ticks} ticks", ticks.len()));
         }
-        row(&mut out, "full six-axis tick", var, &ticks);
+        let (states, motion_ok) = if var == "f32" { classify::<f32>(data)? } else { classify::<Fx>(data)? };
+        row(&mut out, "full six-axis tick, whole scenario", var, &ticks);
+        let mut seen: Vec<State> = Vec::new();
+        for s in &states {
+            if !seen.contains(s) {
+                seen.push(*s);
+            }
+        }
+        for st in seen {
+            let v: Vec<u64> = ticks.iter().zip(&states).filter(|(_, s)| **s == st).map(|(c, _)| *c).collect();
+            row(&mut per_state, &format!("tick ending in {st:?}"), var, &v);
+        }
         let parses = ch.get(format!("parse_{var}").as_str()).cloned().unwrap_or_default();
         let fr = frames(data)?;
-        if parses.len() != fr.len() {
+        if parses.len() != fr.len() || motion_ok.len() != fr.len() {
             return Err(format!("{var}: {} parse samples, scenario has {} frames", parses.len(), fr.len()));
         }
-        let motion: Vec<(u64, usize)> =
-            parses.iter().zip(&fr).filter(|(_, f)| f.1).map(|(c, f)| (c.saturating_sub(ovh), f.0)).collect();
-        row(&mut out, "parse one driver motion frame", var, &motion.iter().map(|m| m.0).collect::<Vec<_>>());
+        let motion: Vec<(u64, usize)> = parses
+            .iter()
+            .zip(&fr)
+            .zip(&motion_ok)
+            .filter(|(_, ok)| **ok)
+            .map(|((c, f), _)| (c.saturating_sub(ovh), f.0))
+            .collect();
+        let rejected: Vec<u64> = parses
+            .iter()
+            .zip(&fr)
+            .zip(&motion_ok)
+            .filter(|((_, f), ok)| f.1 && !**ok)
+            .map(|((c, _), _)| *c)
+            .collect();
+        row(&mut out, "parse one accepted driver motion frame", var, &motion.iter().map(|m| m.0).collect::<Vec<_>>());
+        row(&mut out, "parse one rejected motion frame", var, &rejected);
         let bytes: usize = motion.iter().map(|m| m.1).sum();
         let instr: u64 = motion.iter().map(|m| m.0).sum();
         let (lmin, lmax) = (motion.iter().map(|m| m.1).min().unwrap_or(0), motion.iter().map(|m| m.1).max().unwrap_or(0));
@@ -328,7 +371,11 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
         )
         .unwrap();
     }
-    writeln!(out, "\nParser cost per byte (driver motion frames of the scenario, marker overhead subtracted):\n").unwrap();
+    writeln!(out, "\nTick cost by the state the tick ends in:\n").unwrap();
+    writeln!(out, "| measured | variant | samples | min | median | max | max/min | mean |").unwrap();
+    writeln!(out, "|---|---|---:|---:|---:|---:|---:|---:|").unwrap();
+    out.push_str(&per_state);
+    writeln!(out, "\nParser cost per byte (accepted driver motion frames of the scenario, marker overhead subtracted):\n").unwrap();
     writeln!(out, "| variant | frames | bytes per frame | mean bytes | instructions per byte (total/total) | min per frame | max per frame |").unwrap();
     writeln!(out, "|---|---:|---|---:|---:|---:|---:|").unwrap();
     out.push_str(&per_byte);

@@ -199,6 +199,15 @@ fn main() -> ! {
         ok = false;
     }
 
+    note!(
+        "ram: size_of Kernel<f32> {} B, Kernel<Fx> {} B, Parser<f32> {} B, Parser<Fx> {} B, TickOutput<f32> {} B, TickOutput<Fx> {} B",
+        core::mem::size_of::<kernel::KernelF32>(),
+        core::mem::size_of::<kernel::KernelFx>(),
+        core::mem::size_of::<protocol::Parser<f32>>(),
+        core::mem::size_of::<protocol::Parser<Fx>>(),
+        core::mem::size_of::<kernel::TickOutput<f32>>(),
+        core::mem::size_of::<kernel::TickOutput<Fx>>()
+    );
     let (lo, hi) = paint_stack();
     let top = addr_of!(_stack_start) as usize;
 
