@@ -19,8 +19,8 @@ use core::ptr::addr_of_mut;
 use teensy4_bsp as bsp;
 
 use bsp::board;
-use bsp::ral;
 use bsp::interrupt;
+use bsp::ral;
 use cortex_m::peripheral::NVIC;
 
 use hal_imxrt::periph::cycles::CycleCounter;
@@ -31,9 +31,7 @@ use hal_imxrt::periph::tick::Tick;
 use hal_imxrt::periph::uart::Serial1;
 use hal_imxrt::periph::watchdog::Watchdog;
 use hal_imxrt::periph::{clocks, iomux, panic_stop};
-use hal_imxrt::pure::clock::{
-    pit_load_value, rtwdog_toval, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US,
-};
+use hal_imxrt::pure::clock::{pit_load_value, rtwdog_toval, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US};
 use hal_imxrt::pure::encoder::{EncoderReading, LossReason, Tracker, TrackerConfig};
 use hal_imxrt::pure::frame::FrameDecoder;
 use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
@@ -41,7 +39,7 @@ use hal_imxrt::pure::step::StepConfig;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
 use firmware::{RequestGate, CMD_SLOTS, TEL_SLOTS};
-use kernel::config::{PAROL6, AXES};
+use kernel::config::{AXES, PAROL6};
 use kernel::{Authority, HardwareFault, KernelF32, State};
 use protocol::feedback::{configurator_line, driver_line, FeedbackDivider, FeedbackMode};
 use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
@@ -427,12 +425,7 @@ fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
         let gpio4 = ral::gpio::GPIO4::instance();
         let io = ral::iomuxc::IOMUXC::instance();
         // 1. every STEP output low, stepping stopped
-        panic_stop::force_steps_low(
-            [&pwm1, &pwm2, &pwm3, &pwm4],
-            [&gpio1, &gpio2, &gpio3, &gpio4],
-            &io,
-            &MAP,
-        );
+        panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
         // 2. remember it across the watchdog reset
         core::ptr::write_volatile(addr_of_mut!(PANIC_MARK).cast::<u32>(), firmware::PANIC_MARKER);
         // 3. signal

@@ -5,8 +5,8 @@
 //! fit is dropped whole and counted, the main loop never blocks.
 
 use heapless::Deque;
-use teensy4_bsp::usbd::{BusAdapter, EndpointMemory, EndpointState, Instances, Speed};
 use teensy4_bsp::ral;
+use teensy4_bsp::usbd::{BusAdapter, EndpointMemory, EndpointState, Instances, Speed};
 use usb_device::bus::UsbBusAllocator;
 use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDeviceState, UsbVidPid};
 use usb_device::LangID;

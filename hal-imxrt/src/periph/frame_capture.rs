@@ -113,7 +113,14 @@ impl FrameCapture {
             // An edge during the snapshot changes INPUT, or sets IEF again
             // (a rising edge after the clear).
             let consistent = (s1 & SCTRL_INPUT) == (s2 & SCTRL_INPUT) && (s2 & SCTRL_IEF) == 0;
-            *o = Snapshot { ief: s1 & SCTRL_IEF != 0, input_high: s1 & SCTRL_INPUT != 0, capt, cntr, cycles: now, consistent };
+            *o = Snapshot {
+                ief: s1 & SCTRL_IEF != 0,
+                input_high: s1 & SCTRL_INPUT != 0,
+                capt,
+                cntr,
+                cycles: now,
+                consistent,
+            };
         }
         out
     }

@@ -326,7 +326,12 @@ mod tests {
     fn exact_at_rest_across_the_range_and_phases() {
         for count in (0..=MAX_COUNT).step_by(97).chain([0, 1, 4094, MAX_COUNT]) {
             for phase in [0.0, 111_111.0, 300_000.0, 617_000.0] {
-                let sim = Sim { period: NOMINAL_PERIOD_CYCLES as f64, phase, count_at: Box::new(move |_| count), stuck: None };
+                let sim = Sim {
+                    period: NOMINAL_PERIOD_CYCLES as f64,
+                    phase,
+                    count_at: Box::new(move |_| count),
+                    stuck: None,
+                };
                 let r = run(&sim, 60);
                 for (i, x) in r.iter().enumerate().skip(4) {
                     assert_eq!(*x, EncoderReading::Count(count), "count {count} phase {phase} tick {i}");
@@ -374,7 +379,12 @@ mod tests {
     #[test]
     fn duty_extremes() {
         for count in [0u16, MAX_COUNT] {
-            let sim = Sim { period: NOMINAL_PERIOD_CYCLES as f64, phase: 0.5, count_at: Box::new(move |_| count), stuck: None };
+            let sim = Sim {
+                period: NOMINAL_PERIOD_CYCLES as f64,
+                phase: 0.5,
+                count_at: Box::new(move |_| count),
+                stuck: None,
+            };
             assert!(run(&sim, 50)[5..].iter().all(|x| *x == EncoderReading::Count(count)), "{count}");
         }
     }
@@ -382,7 +392,8 @@ mod tests {
     #[test]
     fn stuck_lines_are_lost() {
         for (stuck, why) in [(false, LossReason::NoSignal), (true, LossReason::StuckHigh)] {
-            let sim = Sim { period: NOMINAL_PERIOD_CYCLES as f64, phase: 0.0, count_at: Box::new(|_| 0), stuck: Some(stuck) };
+            let sim =
+                Sim { period: NOMINAL_PERIOD_CYCLES as f64, phase: 0.0, count_at: Box::new(|_| 0), stuck: Some(stuck) };
             let r = run(&sim, 10);
             assert_eq!(r[9], EncoderReading::Lost(why));
         }
