@@ -2,7 +2,7 @@
 //! from states reached through the public API (see `setup`).
 
 use crate::numeric::any_mostly_in;
-use crate::setup::{here, operational, still, target, Sym, COUNTS, PROOF_CONFIG};
+use crate::setup::{here, operational, still, target, Sym, COUNTS, PROOF_CONFIG, SEED_DEPENDENCIES};
 use kernel::config::AXES;
 use kernel::{
     EncoderSample, Event, Fx, HardwareFault, Kernel, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput,
@@ -151,7 +151,7 @@ fn from_power_on<S: Sym>() {
             let phases = k.homing_phases();
             for i in 0..AXES {
                 if phases[i].is_moving() {
-                    let needs = Kernel::<S>::dependencies(i);
+                    let needs = SEED_DEPENDENCIES[i];
                     assert!(o.status.homed & needs == needs);
                 } else {
                     assert!(o.act.velocity[i] == S::ZERO);

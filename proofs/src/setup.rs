@@ -26,6 +26,12 @@ pub const PROOF_CONFIG: ArmConfig = {
     c
 };
 
+/// The seed's homing order (FIRMWARE_DEVELOPER_GUIDE.md section 6: J6; then
+/// J5 and J4; then J1, J2, J3), written out here independently of the
+/// kernel's tables so that a harness cannot inherit a mistake from them: the
+/// joints (bit i = J(i+1)) that must be homed before joint i may move.
+pub const SEED_DEPENDENCIES: [u8; AXES] = [0b11_1000, 0b11_1000, 0b11_1000, 0b10_0000, 0b10_0000, 0b00_0000];
+
 /// Counts the stationary encoders read (mid-range, away from the wrap).
 pub const COUNTS: [u16; AXES] = [1000, 2000, 3000, 500, 1500, 2500];
 
@@ -97,6 +103,13 @@ pub fn target<S: Scalar>(p: [S; AXES]) -> MotionTarget<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn kernel_dependencies_match_the_seed() {
+        for (j, needs) in SEED_DEPENDENCIES.iter().enumerate() {
+            assert_eq!(Kernel::<f32>::dependencies(j), *needs, "J{}", j + 1);
+        }
+    }
 
     #[test]
     fn setup_reaches_operational_in_both_variants() {

@@ -31,7 +31,7 @@ use kernel::{
     Authority, EncoderSample, Event, Fx, HardwareFault, HomingStatus, Kernel, MotionTarget, Request, RequestKind,
     Scalar, Sense, State,
 };
-use proofs::setup::{COUNTS, PROOF_CONFIG};
+use proofs::setup::{COUNTS, PROOF_CONFIG, SEED_DEPENDENCIES};
 use stateright::{Checker, Model, Property};
 use std::hash::{DefaultHasher, Hash, Hasher};
 
@@ -230,7 +230,7 @@ impl Model for Supervisor {
         if st == State::Homing {
             let phases = n.k.homing_phases();
             let bad = (0..AXES).any(|i| {
-                let needs = Kernel::<Fx>::dependencies(i);
+                let needs = SEED_DEPENDENCIES[i];
                 if phases[i].is_moving() {
                     n.k.homed() & needs != needs
                 } else {
