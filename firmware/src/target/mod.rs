@@ -107,6 +107,10 @@ static mut TICK_CTX: MaybeUninit<TickCtx> = MaybeUninit::uninit();
 static mut LINK: Link<f32, CMD_SLOTS, TEL_SLOTS> = Link::new();
 /// Survives a reset (imxrt-rt `.uninit`, not zeroed at start-up): set by the
 /// panic handler, read and cleared at boot.
+// SAFETY: `.uninit.parol6_panic` is placed by imxrt-rt's linker script in the
+// `.uninit` output section (OCRAM, not zero-initialised, not overlapping any
+// other object); the static is `MaybeUninit`, so an arbitrary bit pattern at
+// power-on is a valid value, and it is only read as a plain `u32` marker.
 #[unsafe(link_section = ".uninit.parol6_panic")]
 static mut PANIC_MARK: MaybeUninit<u32> = MaybeUninit::uninit();
 
