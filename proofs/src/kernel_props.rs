@@ -1,7 +1,7 @@
 //! Whole-kernel properties: one or a few ticks of the real `Kernel::tick`
 //! from states reached through the public API (see `setup`).
 
-use crate::numeric::any_mostly_in;
+use crate::numeric::any_target;
 use crate::setup::{here, operational, still, target, Sym, COUNTS, PROOF_CONFIG, SEED_DEPENDENCIES};
 use kernel::config::AXES;
 use kernel::{
@@ -33,17 +33,6 @@ fn any_sense() -> Sense {
         s.hardware_fault = Some(HardwareFault::TickOverrun);
     }
     s
-}
-
-fn any_target<S: Sym>() -> kernel::MotionTarget<S> {
-    let mut t = target([S::ZERO; AXES]);
-    for i in 0..AXES {
-        let j = &PROOF_CONFIG.joints[i];
-        t.position[i] = any_mostly_in(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
-        let v = S::from_f32(j.max_velocity);
-        t.velocity[i] = any_mostly_in(v.neg(), v);
-    }
-    t
 }
 
 fn all_zero<S: Scalar>(o: &TickOutput<S>) -> bool {

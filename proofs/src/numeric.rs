@@ -34,6 +34,19 @@ pub(crate) fn any_in<S: Sym>(lo: S, hi: S) -> S {
     v.clamp_between(lo, hi)
 }
 
+/// A target whose values are mostly within each joint's limits (see
+/// [`any_mostly_in`]); symbolically any target.
+pub(crate) fn any_target<S: Sym>() -> kernel::MotionTarget<S> {
+    let mut t = target([S::ZERO; AXES]);
+    for i in 0..AXES {
+        let j = &PROOF_CONFIG.joints[i];
+        t.position[i] = any_mostly_in(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
+        let v = S::from_f32(j.max_velocity);
+        t.velocity[i] = any_mostly_in(v.neg(), v);
+    }
+    t
+}
+
 /// SR-2, SR-3: saturation is finite, bounded, the identity inside the
 /// bound, and zero for non-finite inputs.
 fn saturation<S: Sym>() {
@@ -190,13 +203,7 @@ fn interpolator_stays_in_segment_and_arrives_fx() {
 /// limits, with every velocity within its limit.
 fn validation<S: Sym>() {
     let (k, _) = operational::<S>();
-    let mut t = target([S::ZERO; AXES]);
-    for i in 0..AXES {
-        let j = &PROOF_CONFIG.joints[i];
-        t.position[i] = any_mostly_in(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
-        let v = S::from_f32(j.max_velocity);
-        t.velocity[i] = any_mostly_in(v.neg(), v);
-    }
+    let t = any_target::<S>();
     let ok = k.validate(&t).is_ok();
     kani::cover!(ok, "some target accepted");
     kani::cover!(!ok, "some target rejected");
