@@ -32,6 +32,15 @@ step "clippy (thumbv7em-none-eabihf, warnings are errors)"
 cargo clippy -p kernel -p protocol -p hal-imxrt --target thumbv7em-none-eabihf --release --locked -- -D warnings
 
 step "host tests (Kani harnesses run under the shim and report to $EVIDENCE_DIR/shim.tsv)"
+# Property tests: new random cases for every commit, reproducible for a given
+# one (the seed comes from the commit; set PROPTEST_RNG_SEED to override).
+# Stored failures in proptests/proptest-regressions/ are replayed first.
+if [ -z "${PROPTEST_RNG_SEED:-}" ]; then
+    PROPTEST_RNG_SEED=$(( 16#$(git rev-parse HEAD 2>/dev/null | cut -c1-15 || echo 0) ))
+    [ "$PROPTEST_RNG_SEED" != 0 ] || PROPTEST_RNG_SEED=1
+fi
+export PROPTEST_RNG_SEED
+echo "PROPTEST_RNG_SEED=$PROPTEST_RNG_SEED"
 KANI_SHIM_REPORT="$EVIDENCE_DIR/shim.tsv" cargo test --workspace --locked
 
 step "kernel and protocol for the Cortex-M7"

@@ -756,7 +756,10 @@ impl<S: Scalar> Kernel<S> {
             if sense.limits & bit(i) != 0 {
                 return Some(FaultReason::LimitSwitch { axis });
             }
-            if ax.obs.v.abs() > p.vmax {
+            // An axis whose count was lost has a frozen estimate: enable
+            // re-initialises it from the reading at rest, so its stale
+            // velocity is no cause (it blocked enable forever otherwise).
+            if !ax.needs_reinit && ax.obs.v.abs() > p.vmax {
                 return Some(FaultReason::Runaway { axis });
             }
             let homed = self.homed & bit(i) != 0 && !ax.needs_reinit;

@@ -42,6 +42,7 @@ both!(
     enable_is_refused_when_a_fault_is_detected_in_the_same_tick,
     home_during_boot_is_queued,
     acceleration_is_limited_in_operational,
+    encoder_lost_while_fast_does_not_block_enable_forever,
 );
 
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
@@ -374,6 +375,37 @@ fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
     let out = r.run(limit + 1);
     assert!(matches!(out.status.fault.unwrap().reason, FaultReason::EncoderJump { axis: 1, .. }));
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
+}
+
+/// Found by the f32/fixed-point differential (CI, session 2): an encoder
+/// lost while its joint moved near its velocity limit froze the estimate
+/// there, and the enable check read the frozen velocity as a runaway, so
+/// the arm could never be enabled again. A lost count is re-initialised
+/// from its reading at enable (velocity 0): only the reading's presence is
+/// a cause.
+fn encoder_lost_while_fast_does_not_block_enable_forever<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.run(3);
+    assert_eq!(r.k.state(), State::Unhomed);
+    let j = 3;
+    let vmax = f64::from(PAROL6.joints[j].max_velocity);
+    // Something drives J4 at 1.05 vmax with the outputs at zero: above the
+    // enable threshold, below the runaway fault threshold, so no fault yet.
+    r.plant.disturbance[j] = 1.05 * vmax;
+    let out = r.run(100);
+    assert_eq!(out.status.state, State::Unhomed);
+    assert!(f64::from(out.status.velocity[j].to_f32()) > vmax, "estimate follows the outside force");
+    // Its encoder is lost for longer than the kernel rides through.
+    r.plant.encoder_lost[j] = true;
+    let out = r.run(PAROL6.encoder_invalid_limit + 1);
+    assert_eq!(out.status.fault.unwrap().reason, FaultReason::EncoderLost { axis: j as u8 });
+    // The arm stops and the encoder comes back.
+    r.plant.disturbance[j] = 0.0;
+    r.plant.encoder_lost[j] = false;
+    r.run(50);
+    let out = r.enable();
+    assert_eq!(out.status.state, State::Unhomed, "events: {:?}", out.events);
+    assert_eq!(out.status.velocity[j], S::ZERO);
 }
 
 /// Found by the model check: a fault detected while sensing in the same tick
