@@ -466,8 +466,9 @@ impl<S: Scalar> Monitor<S> {
                 "SR-7: Stopped in {prev:?} -> {st:?}"
             );
             // The ramp's ticks, from the SoftEstop event (k = 1) to the zero (k = N).
+            // (The fault tick is not counted above when the fault wins.)
             ensure!(
-                self.stopping_ticks == self.stop_ticks,
+                self.stopping_ticks + u32::from(faulted_now) == self.stop_ticks,
                 "SR-7: ramp took {} ticks, N = {}",
                 self.stopping_ticks,
                 self.stop_ticks
