@@ -7,8 +7,6 @@
 //!
 //! * [`sense`]: HAL readings -> [`kernel::Sense`];
 //! * [`act`]: kernel step rates -> `hal_imxrt` step commands (all or none);
-//! * [`RequestGate`]: one command per tick, HOME held while the kernel boots
-//!   (the simulator's composition-root policy, mirrored);
 //! * [`boot_fault`]: reset cause and self-test -> [`kernel::HardwareFault`];
 //! * [`cycles_to_us`]: tick duration for the configurator line.
 #![cfg_attr(not(test), no_std)]
@@ -20,7 +18,6 @@ use hal_imxrt::pure::encoder::EncoderReading;
 use hal_imxrt::pure::step::{step_command, StepCommand, StepConfig};
 use kernel::config::AXES;
 use kernel::{EncoderSample, HardwareFault, Sense};
-use protocol::Command;
 
 /// Firmware version string for the banner.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -73,41 +70,6 @@ pub fn act(rates: &[i32; AXES], cfg: &StepConfig) -> ([StepCommand; AXES], Optio
 /// CPU cycles (600 MHz) -> whole microseconds.
 pub const fn cycles_to_us(cycles: u32) -> u32 {
     cycles / (hal_imxrt::pure::clock::CPU_HZ / 1_000_000)
-}
-
-/// Takes at most one command per tick from the queue; a `HOME`/`HOMEn`
-/// that arrives while the kernel is in `Boot` is held (in order, blocking
-/// the queue behind it) until `Boot` ends instead of being refused — the
-/// ROS 2 driver sends its single `<HOME>` as soon as it sees the first line.
-#[derive(Debug, Default)]
-pub struct RequestGate<S> {
-    deferred: Option<Command<S>>,
-}
-
-impl<S: Copy> RequestGate<S> {
-    /// Nothing held.
-    pub const fn new() -> Self {
-        Self { deferred: None }
-    }
-
-    /// The command for this tick. `recv` pops the queue and is called at
-    /// most once.
-    pub fn next(&mut self, booting: bool, recv: impl FnOnce() -> Option<Command<S>>) -> Option<Command<S>> {
-        match self.deferred.take() {
-            Some(d) if booting => {
-                self.deferred = Some(d);
-                None
-            }
-            Some(d) => Some(d),
-            None => match recv() {
-                Some(c @ (Command::Home | Command::HomeJoint(_))) if booting => {
-                    self.deferred = Some(c);
-                    None
-                }
-                c => c,
-            },
-        }
-    }
 }
 
 /// Boot-fault codes carried in [`HardwareFault::SelfTest`].
@@ -238,25 +200,6 @@ mod tests {
         assert_eq!(cycles_to_us(600), 1);
         assert_eq!(cycles_to_us(600_000), 1000);
         assert_eq!(cycles_to_us(u32::MAX), 7_158_278);
-    }
-
-    #[test]
-    fn home_during_boot_is_held_then_delivered() {
-        let mut g: RequestGate<f32> = RequestGate::new();
-        let mut q = vec![Command::Home, Command::Enable];
-        let pop = |q: &mut Vec<Command<f32>>| if q.is_empty() { None } else { Some(q.remove(0)) };
-        assert_eq!(g.next(true, || pop(&mut q)), None); // HOME held
-        assert_eq!(g.next(true, || pop(&mut q)), None); // still booting: queue blocked
-        assert_eq!(q.len(), 1);
-        assert!(matches!(g.next(false, || pop(&mut q)), Some(Command::Home)));
-        assert!(matches!(g.next(false, || pop(&mut q)), Some(Command::Enable)));
-        assert_eq!(g.next(false, || pop(&mut q)), None);
-    }
-
-    #[test]
-    fn enable_during_boot_passes_through() {
-        let mut g: RequestGate<f32> = RequestGate::new();
-        assert!(matches!(g.next(true, || Some(Command::Enable)), Some(Command::Enable)));
     }
 
     #[test]

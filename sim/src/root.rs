@@ -57,7 +57,6 @@ pub struct Root {
     mode: FeedbackMode,
     t_ms: u64,
     line: Line,
-    deferred: Option<Command<f32>>,
 }
 
 impl std::fmt::Debug for Root {
@@ -86,7 +85,6 @@ impl Root {
             mode,
             t_ms: 0,
             line: Line::new(),
-            deferred: None,
         }
     }
 
@@ -149,27 +147,9 @@ impl Root {
         }
         // Tick: sense, one request, kernel, act.
         let sense = self.plant.sense();
-        // Policy of this composition root: a HOME that arrives while the
-        // kernel is still in BOOT (its first few ticks, until every encoder
-        // has been read once) is held, in order, until BOOT ends instead of
-        // being refused. Feedback streams from boot, and the ROS 2 driver
-        // sends its single <HOME> as soon as it sees the first line; a
-        // refused HOME would leave it waiting 90 s for H2.
-        let booting = self.kernel.state() == kernel::State::Boot;
-        let cmd = match self.deferred.take() {
-            Some(d) if booting => {
-                self.deferred = Some(d);
-                None
-            }
-            Some(d) => Some(d),
-            None => match self.tick.recv() {
-                Some(c @ (Command::Home | Command::HomeJoint(_))) if booting => {
-                    self.deferred = Some(c);
-                    None
-                }
-                c => c,
-            },
-        };
+        // At most one command per tick (a HOME that arrives during Boot is
+        // queued by the kernel itself: Event::HomingQueued).
+        let cmd = self.tick.recv();
         let target = match &cmd {
             Some(Command::Motion { target, .. }) => Some(target.position),
             _ => None,

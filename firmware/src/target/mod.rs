@@ -38,7 +38,7 @@ use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
 use hal_imxrt::pure::step::StepConfig;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
-use firmware::{RequestGate, CMD_SLOTS, TEL_SLOTS};
+use firmware::{CMD_SLOTS, TEL_SLOTS};
 use kernel::config::{AXES, PAROL6};
 use kernel::{Authority, HardwareFault, KernelF32, State};
 use protocol::feedback::{configurator_line, driver_line, FeedbackDivider, FeedbackMode};
@@ -94,7 +94,6 @@ struct TickCtx {
     steps: StepOutputs,
     wdog: Watchdog,
     link: TickEnd<'static, f32, CMD_SLOTS, TEL_SLOTS>,
-    gate: RequestGate<f32>,
     divider: FeedbackDivider,
     pending_fault: Option<HardwareFault>,
     last_us: u32,
@@ -133,10 +132,9 @@ impl TickCtx {
         }
         let limits = self.limits.sample(&self.gpios);
         let sense = firmware::sense(&enc, &limits, self.pending_fault.take());
-        // 2. one request; ENABLE becomes a capability only here
-        let booting = self.kernel.state() == State::Boot;
-        let link = &mut self.link;
-        let cmd = self.gate.next(booting, || link.recv());
+        // 2. one request; ENABLE becomes a capability only here (a HOME
+        // that arrives during Boot is queued by the kernel itself)
+        let cmd = self.link.recv();
         let authority = &self.authority;
         let request = cmd.map(|c| c.into_request(authority));
         // 3. kernel
@@ -275,7 +273,6 @@ fn main() -> ! {
         steps,
         wdog,
         link: tick_end,
-        gate: RequestGate::new(),
         divider: FeedbackDivider::default_for(PAROL6.tick_hz),
         pending_fault: boot_fault,
         last_us: 0,
