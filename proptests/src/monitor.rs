@@ -12,7 +12,13 @@
 
 use kernel::config::{ms_to_ticks, ArmConfig, AXES, COUNTS_PER_REV};
 use kernel::homing::Phase;
-use kernel::{EncoderSample, Event, Fault, MotionTarget, Reject, RequestKind, Scalar, Sense, State, TickOutput};
+use kernel::{
+    EncoderSample, Event, Fault, FaultReason, MotionTarget, Reject, RequestKind, Scalar, Sense, State, TickOutput,
+};
+
+/// Ticks of rest with nothing injected after which the estimates have
+/// settled (the observer's time constant is about 1/alpha = 10 ticks).
+pub const QUIET_TICKS: u32 = 300;
 
 /// Joints that must be homed (and have finished homing) before joint `i`
 /// may move during homing: SR-13, the seed's order J6; J5, J4; J1, J2, J3.
@@ -67,6 +73,9 @@ pub struct Stats {
     pub homing_done: u64,
     /// Ticks in Operational with a non-zero output.
     pub moving_ticks: u64,
+    /// Enables sent in Fault or SoftEstop after the arm had rested with
+    /// nothing injected for `QUIET_TICKS` (SR-6's liveness check applies).
+    pub quiet_enables: u64,
 }
 
 impl Stats {
@@ -87,6 +96,7 @@ impl Stats {
         self.stopped += o.stopped;
         self.homing_done += o.homing_done;
         self.moving_ticks += o.moving_ticks;
+        self.quiet_enables += o.quiet_enables;
     }
 }
 
@@ -139,6 +149,10 @@ pub struct PlantFacts {
     /// Nothing has been injected since power-on (SR-1's check of the
     /// observer's initial value needs undisturbed readings).
     pub clean_since_start: bool,
+    /// Consecutive ticks (up to this one) with the arm at rest and nothing
+    /// injected: no outside force, glitch, loss, slip, switch or hardware
+    /// fault.
+    pub quiet_ticks: u32,
     /// Nothing was injected during the current homing run (SR-14's check of
     /// the captured zero needs a real switch edge).
     pub clean_homing: bool,
@@ -365,6 +379,34 @@ impl<S: Scalar> Monitor<S> {
         let sensed_cause = sense.hardware_fault.is_some()
             || sense.limits & 0b11_1111 != 0
             || sense.encoders.iter().any(|e| !matches!(e, EncoderSample::Count(c) if i32::from(*c) < COUNTS_PER_REV));
+        // SR-6, liveness: a cause named by a refusal is real. After the arm
+        // has rested with nothing injected for `QUIET_TICKS` the estimates
+        // have settled, so no speed is a cause, and a lost encoder, a switch
+        // or a hardware fault must be in this tick's sensors. (A frozen
+        // estimate of a lost encoder once blocked enable for good.)
+        if let (Some(Sent::Enable), true) = (sent, plant.quiet_ticks >= QUIET_TICKS) {
+            if matches!(prev, State::Fault | State::SoftEstop) {
+                self.stats.quiet_enables += 1;
+            }
+            for e in &ev {
+                if let Event::Rejected { reason: Reject::CauseActive(c), .. } = e {
+                    let real = match *c {
+                        FaultReason::Runaway { .. } => false,
+                        FaultReason::EncoderLost { axis } => {
+                            !matches!(sense.encoders[usize::from(axis)], EncoderSample::Count(n) if i32::from(n) < COUNTS_PER_REV)
+                        }
+                        FaultReason::LimitSwitch { axis } => sense.limits & (1 << axis) != 0,
+                        FaultReason::Hardware(_) => sense.hardware_fault.is_some(),
+                        _ => true,
+                    };
+                    ensure!(
+                        real,
+                        "SR-6: enable refused for {c:?} after the arm rested {} ticks with nothing injected",
+                        plant.quiet_ticks
+                    );
+                }
+            }
+        }
         if let Some(Sent::Enable) = sent {
             if matches!(prev, State::Fault | State::SoftEstop) && sensed_cause {
                 ensure!(enabled.is_none(), "SR-6: enable accepted with a cause in the sensors: {sense:?}");

@@ -498,6 +498,10 @@ pub struct Sut<S: Variant> {
     pub ticks: u64,
     last_injection: Option<u64>,
     homing_started: Option<u64>,
+    /// Plant angles at the previous tick, and consecutive ticks with the arm
+    /// at rest and nothing injected.
+    rest_q: [f64; AXES],
+    quiet: u32,
     boot_lost_until: Option<(usize, u64)>,
     recent: VecDeque<(u64, Sense, Option<Req>, TickOutput<S>)>,
     /// The last tick's output.
@@ -516,6 +520,8 @@ impl<S: Variant> Sut<S> {
             ticks: 0,
             last_injection: None,
             homing_started: None,
+            rest_q: [f64::NAN; AXES],
+            quiet: 0,
             boot_lost_until: None,
             recent: VecDeque::new(),
             last: None,
@@ -547,6 +553,8 @@ impl<S: Variant> Sut<S> {
                     ticks: s.ticks,
                     last_injection: None,
                     homing_started: None,
+                    rest_q: [f64::NAN; AXES],
+                    quiet: 0,
                     boot_lost_until: None,
                     recent: VecDeque::new(),
                     last: None,
@@ -600,6 +608,10 @@ impl<S: Variant> Sut<S> {
         if !self.plant.is_clean() {
             self.last_injection = Some(self.ticks);
         }
+        let moved = self.plant.q != self.rest_q;
+        self.rest_q = self.plant.q;
+        let injected_now = self.last_injection.is_some_and(|i| i >= self.ticks);
+        self.quiet = if moved || injected_now { 0 } else { self.quiet.saturating_add(1) };
         let out = self.k.tick(&sense, request);
         if out.events.iter().any(|e| matches!(e, kernel::Event::HomingStarted { .. })) {
             self.homing_started = Some(self.ticks);
@@ -607,6 +619,7 @@ impl<S: Variant> Sut<S> {
         let facts = PlantFacts {
             q: self.plant.q,
             clean_since_start: self.last_injection.is_none(),
+            quiet_ticks: self.quiet,
             clean_homing: match (self.homing_started, self.last_injection) {
                 (Some(h), Some(i)) => i < h,
                 (_, None) => true,

@@ -83,7 +83,7 @@ fn run<S: Variant>(file: &'static str) {
     println!(
         "state machine [{}]: {cases} cases, {} ticks checked in {:.1} s; ticks per state \
          (Boot, Unhomed, Homing, Operational, Stopping, SoftEstop, Fault) {:?}; moving {}; \
-         targets accepted {}, requests rejected {}; enables {} (refused with a cause {}); \
+         targets accepted {}, requests rejected {}; enables {} (refused with a cause {}; sent at rest {}); \
          soft stops {} (completed {}); homing runs completed {}; faults: {}",
         S::NAME,
         s.ticks,
@@ -94,6 +94,7 @@ fn run<S: Variant>(file: &'static str) {
         s.rejected,
         s.enabled,
         s.enable_refused,
+        s.quiet_enables,
         s.soft_stops,
         s.stopped,
         s.homing_done,
