@@ -160,17 +160,8 @@ pub struct ArmConfig {
     pub beta: f32,
     /// Control output deadband (rad/s); 0 disables it.
     pub deadband: f32,
-    /// Command timeout after which the soft E-stop starts (ms), provided
-    /// every set-point has also rested on its target for `settle_ms`.
+    /// Command timeout after which the soft E-stop starts (ms).
     pub command_timeout_ms: u32,
-    /// Time every set-point must have rested on its target before the
-    /// command timeout may start the soft stop (ms). A stream that stops has
-    /// reached its last target within one segment, so with
-    /// `settle + segment_max + 2 ticks <= command_timeout` (checked; a
-    /// rounded step can arrive one tick late, plus one tick of margin) it
-    /// stops on the timeout as before; a single far "go to" (the configurator's)
-    /// finishes its move, settles, then stops.
-    pub settle_ms: u32,
     /// Duration of the soft E-stop ramp from any speed to zero (ms).
     pub soft_stop_ms: u32,
     /// Budget from the last command to standstill (ms): timeout + ramp must fit.
@@ -243,7 +234,6 @@ pub const PAROL6: ArmConfig = ArmConfig {
     beta: 0.005,
     deadband: 0.0,
     command_timeout_ms: 100,
-    settle_ms: 55,
     soft_stop_ms: 100,
     stop_budget_ms: 200,
     max_step_rate: 120_000,
@@ -300,13 +290,6 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
     }
     if c.command_timeout_ms as u64 + c.soft_stop_ms as u64 > c.stop_budget_ms as u64 {
         return Err("command timeout + soft-stop ramp exceed the stop budget");
-    }
-    let settle = ms_to_ticks(c.settle_ms, c.tick_hz) as u64;
-    let seg_max = ms_to_ticks(c.segment_max_ms, c.tick_hz) as u64;
-    if settle + seg_max + 2 > ms_to_ticks(c.command_timeout_ms, c.tick_hz) as u64 {
-        return Err(
-            "settle + longest segment + 2 ticks exceed the command timeout: a stream that stops would stop late",
-        );
     }
     if ms_to_ticks(c.soft_stop_ms, c.tick_hz) > 100_000 {
         return Err("soft-stop ramp too long");
@@ -467,9 +450,6 @@ mod tests {
         assert!(with(|c| c.beta = 0.5).is_err());
         assert!(with(|c| c.alpha = f32::NAN).is_err());
         assert!(with(|c| c.command_timeout_ms = 150).is_err());
-        // A stream that stops must still stop on the timeout.
-        assert!(with(|c| c.settle_ms = 59).is_err());
-        assert!(with(|c| c.settle_ms = 58).is_ok());
         assert!(with(|c| c.segment_max_ms = 100).is_err());
         assert!(with(|c| c.joints[3].homing.fast_speed = 7.0).is_err());
         assert!(with(|c| c.joints[3].homing.switch_position = -3.0).is_err());

@@ -119,7 +119,6 @@ pub(crate) struct Params<S: Scalar> {
     pub tick_hz: i32,
     pub deadband: S,
     pub timeout_ticks: u32,
-    pub settle_ticks: u32,
     pub stop_ticks: u32,
     pub inv_stop: S,
     pub seg_min: u32,
@@ -146,7 +145,6 @@ impl<S: Scalar> Params<S> {
             tick_hz: i32::try_from(c.tick_hz).unwrap_or(1000),
             deadband: S::from_f32(c.deadband),
             timeout_ticks: ms_to_ticks(c.command_timeout_ms, c.tick_hz),
-            settle_ticks: ms_to_ticks(c.settle_ms, c.tick_hz),
             stop_ticks,
             inv_stop: S::from_f32(1.0 / stop_ticks as f32),
             seg_min: ms_to_ticks(c.segment_min_ms, c.tick_hz).max(1),
@@ -232,9 +230,6 @@ pub struct Kernel<S: Scalar> {
     boot_ticks: u32,
     since_cmd: u32,
     armed: bool,
-    /// Consecutive Operational ticks that began with every set-point on its
-    /// target (saturating); reset by an accepted motion command.
-    settled: u32,
     /// Ticks since the last accepted target (saturates at `seg_max`), or
     /// `None` after a resync.
     since_target: Option<u32>,
@@ -275,7 +270,6 @@ impl<S: Scalar> Kernel<S> {
             boot_ticks: 0,
             since_cmd: 0,
             armed: false,
-            settled: 0,
             since_target: None,
             intervals: [0; 4],
             last_out: [S::ZERO; AXES],
@@ -383,17 +377,7 @@ impl<S: Scalar> Kernel<S> {
                 if self.armed {
                     self.since_cmd = self.since_cmd.saturating_add(1);
                 }
-                // A set-point still on its way (a single far "go to") is
-                // motion the host asked for: the timeout waits for it to
-                // arrive and settle (bounded: the target is inside the joint
-                // limits and the set-point moves at <= vmax).
-                let arrived = self.axes.iter().all(|a| a.interp.setpoint() == a.interp.target());
-                // Capped just past the settle time: no decision reads more, and a
-                // bounded counter keeps the model check's state space finite.
-                let cap = self.p.settle_ticks.saturating_add(1);
-                self.settled = if arrived { self.settled.saturating_add(1).min(cap) } else { 0 };
-                let idle = self.since_cmd > self.p.timeout_ticks && self.settled > self.p.settle_ticks;
-                if self.armed && idle {
+                if self.armed && self.since_cmd > self.p.timeout_ticks {
                     self.mode = Mode::Stopping { k: 0, v0: self.last_out };
                     let ms =
                         self.since_cmd.saturating_mul(1000).checked_div(self.p.tick_hz.unsigned_abs()).unwrap_or(0);
@@ -606,7 +590,6 @@ impl<S: Scalar> Kernel<S> {
         }
         self.armed = false;
         self.since_cmd = 0;
-        self.settled = 0;
         self.since_target = None;
     }
 
@@ -734,7 +717,6 @@ impl<S: Scalar> Kernel<S> {
         }
         self.armed = true;
         self.since_cmd = 0;
-        self.settled = 0;
         Ok(())
     }
 
@@ -834,7 +816,6 @@ impl<S: Scalar + core::hash::Hash> core::hash::Hash for Kernel<S> {
         self.boot_ticks.hash(h);
         self.since_cmd.hash(h);
         self.armed.hash(h);
-        self.settled.hash(h);
         self.since_target.hash(h);
         self.intervals.hash(h);
         self.last_out.hash(h);

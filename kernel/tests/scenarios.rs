@@ -43,7 +43,7 @@ both!(
     home_during_boot_is_queued,
     acceleration_is_limited_in_operational,
     encoder_lost_while_fast_does_not_block_enable_forever,
-    a_single_far_target_is_reached_then_the_timeout_stops,
+    a_single_far_target_is_cut_short_by_the_timeout,
 );
 
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
@@ -253,37 +253,24 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
     assert!(out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason: Reject::Latched }));
 }
 
-/// The configurator's "go to" is a single command: the set-point moves at
-/// the joint's max velocity for longer than the command timeout. The timeout
-/// waits for it to arrive and settle, then stops and latches as usual.
-fn a_single_far_target_is_reached_then_the_timeout_stops<S: Scalar>() {
+/// The configurator's "go to" is a single command. The seed (and issue 2)
+/// define the soft E-stop by the command timeout alone: 100 ms after that
+/// command the arm ramps down and latches, wherever the set-point is. A
+/// settle-until-arrival variant was built and reverted (session 2) because
+/// it departs from that rule; this test pins the decision.
+fn a_single_far_target_is_cut_short_by_the_timeout<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
     p[0] += 1.2; // J1 at 3 rad/s: 400 ms of set-point travel
-    p[3] += 1.5; // J4 at 6 rad/s: 250 ms
     let out = r.motion(p);
     assert!(out.events.is_empty(), "{:?}", out.events);
-    let arrived = r
-        .run_until(2000, |o| {
-            assert_eq!(o.status.state, State::Operational, "stopped before the set-point arrived");
-            (0..AXES).all(|i| o.status.setpoint[i] == S::from_f32(p[i] as f32))
-        })
-        .expect("set-points arrive");
-    assert!((399..=402).contains(&arrived), "J1's set-point took {arrived} ticks");
-    let stopped = r.run_until(400, |o| o.status.state == State::SoftEstop).expect("then the timeout stops");
-    let settle = PAROL6.settle_ms;
-    let ramp = PAROL6.soft_stop_ms;
-    assert!(stopped <= settle + ramp + 2, "stop {stopped} ticks after arrival");
-    for i in 0..AXES {
-        let err = (r.plant.q[i] - p[i]).abs();
-        println!("axis {i}: {:.2} mrad from the go-to target at standstill", err * 1e3);
-        // The set-point has no acceleration phase, so the accel-limited arm
-        // lags it by up to vmax^2 / 2a (0.15 rad on J1) at arrival; 55 ms of
-        // closed-loop settling and the ramp leave it within the C++
-        // project's goal-error figure (0.05 rad, ROBOT.md 5): 37 mrad on J1.
-        assert!(err < 0.05, "axis {i} ended {err} rad from its target");
-    }
-    assert!(r.events.iter().any(|e| matches!(e, Event::SoftEstop { since_command_ms } if *since_command_ms > 400)));
+    let started = r.run_until(400, |o| o.status.state == State::Stopping).expect("the timeout fires");
+    assert!((100..=102).contains(&started), "soft stop {started} ticks after the command");
+    let stopped = r.run_until(200, |o| o.status.state == State::SoftEstop).expect("and latches");
+    assert!(started + stopped <= 200, "standstill {} ms after the command", started + stopped);
+    let short = (p[0] - r.plant.q[0]).abs();
+    println!("J1 stopped {short:.3} rad short of a 1.2 rad go-to");
+    assert!(short > 0.5, "the move was cut short, not completed");
 }
 
 fn enable_after_soft_stop_resyncs_without_a_jump<S: Scalar>() {

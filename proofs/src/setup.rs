@@ -12,8 +12,7 @@ use kernel::homing::Phase;
 use kernel::{Authority, EncoderSample, Kernel, MotionTarget, Request, Scalar, Sense, State};
 
 /// `PAROL6` with zero homing back-off, and timeouts short enough for a
-/// harness: command timeout 3 ms, settle 0 ms, soft-stop ramp 4 ms,
-/// segments 1 ms, homing 40 ms per axis.
+/// harness: command timeout 3 ms, soft-stop ramp 4 ms, homing 40 ms per axis.
 pub const PROOF_CONFIG: ArmConfig = {
     let mut c = PAROL6;
     let mut i = 0;
@@ -23,9 +22,6 @@ pub const PROOF_CONFIG: ArmConfig = {
         i += 1;
     }
     c.command_timeout_ms = 3;
-    c.settle_ms = 0;
-    c.segment_min_ms = 1;
-    c.segment_max_ms = 1;
     c.soft_stop_ms = 4;
     c
 };

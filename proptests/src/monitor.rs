@@ -174,13 +174,7 @@ macro_rules! ensure {
 pub struct Monitor<S> {
     cfg: ArmConfig,
     timeout_ticks: u32,
-    settle_ticks: u32,
     stop_ticks: u32,
-    /// Positions of the last accepted motion target.
-    target: [S; AXES],
-    /// Consecutive ticks that began with every set-point on `target`
-    /// (capped at `settle_ticks + 1`), counted from the last accepted target.
-    settled: u32,
     prev_out: [S; AXES],
     prev_state: State,
     prev_armed: bool,
@@ -201,9 +195,6 @@ impl<S: Scalar> Monitor<S> {
         Monitor {
             cfg: *cfg,
             timeout_ticks: ms_to_ticks(cfg.command_timeout_ms, cfg.tick_hz),
-            settle_ticks: ms_to_ticks(cfg.settle_ms, cfg.tick_hz),
-            target: [S::ZERO; AXES],
-            settled: 0,
             stop_ticks: ms_to_ticks(cfg.soft_stop_ms, cfg.tick_hz).max(1),
             prev_out: [S::ZERO; AXES],
             prev_state: State::Boot,
@@ -445,30 +436,19 @@ impl<S: Scalar> Monitor<S> {
             }
         }
 
-        // SR-7: the soft E-stop ramp: starts on the first tick when armed that
-        // is at least `timeout` ticks after the last accepted command and
-        // follows `settle` ticks with every set-point resting on its target
-        // (set-points before this tick's step: the previous tick's); never
-        // increases or reverses, steps at most vmax/N, reaches zero within N
-        // ticks and latches.
-        if let (true, Some(Sent::Motion(t))) = (accepted, sent) {
-            self.target = t.position;
-            self.settled = 0;
-        }
-        let arrived = self.prev_setpoint == self.target;
-        self.settled = if arrived { (self.settled + 1).min(self.settle_ticks + 1) } else { 0 };
+        // SR-7: the soft E-stop ramp: starts exactly `timeout` ticks after the
+        // last accepted command when armed, never increases or reverses,
+        // steps at most vmax/N, reaches zero within N ticks and latches.
         let stop_event = ev.iter().any(|e| matches!(e, Event::SoftEstop { .. }));
         let due = prev == State::Operational
             && self.prev_armed
-            && self.since_accept.is_some_and(|t| t + 1 >= self.timeout_ticks)
-            && self.settled > self.settle_ticks
+            && self.since_accept.map(|t| t + 1) == Some(self.timeout_ticks)
             && !accepted;
         ensure!(
             stop_event == due,
-            "SR-7/SR-8: soft stop event {stop_event} but due {due} (prev {prev:?}, armed {}, {:?} ticks since the last command, settled {})",
+            "SR-7/SR-8: soft stop event {stop_event} but due {due} (prev {prev:?}, armed {}, {:?} ticks since the last command)",
             self.prev_armed,
-            self.since_accept.map(|t| t + 1),
-            self.settled
+            self.since_accept.map(|t| t + 1)
         );
         if st == State::Stopping || (prev == State::Stopping && st == State::SoftEstop) {
             ensure!(matches!(prev, State::Operational | State::Stopping), "SR-7: Stopping entered from {prev:?}");

@@ -240,13 +240,6 @@ pub trait Driver {
     fn tick(&mut self, req: Option<Req>);
     /// The (reference) kernel's state.
     fn state(&self) -> State;
-    /// Streams never ask a set-point for more than this fraction of the
-    /// joint's max velocity, if set: when a set-point is speed-limited its
-    /// arrival tick (which the command timeout waits for) depends on
-    /// rounding, so the differential avoids it.
-    fn speed_fraction(&self) -> Option<f64> {
-        None
-    }
 }
 
 fn range(i: usize) -> (f64, f64) {
@@ -275,20 +268,6 @@ pub fn run_step<D: Driver + ?Sized>(d: &mut D, step: &Step) {
                     lo + goal[i] * (hi - lo)
                 }
             });
-            let goal: [f64; AXES] = match d.speed_fraction() {
-                // Each frame moves at most `f * vmax * segment_min`: a segment
-                // is never shorter (it is the median of recent intervals, which
-                // may still be those of an earlier, faster stream), and frames
-                // come no faster, so no set-point step reaches vmax/tick.
-                Some(f) => std::array::from_fn(|i| {
-                    let vmax = f64::from(PAROL6.joints[i].max_velocity);
-                    let seg_min = f64::from(PAROL6.segment_min_ms) / 1000.0;
-                    let reach = f * vmax * seg_min * f64::from(*count);
-                    let (lo, hi) = range(i);
-                    goal[i].clamp(q0[i] - reach, q0[i] + reach).clamp(lo, hi)
-                }),
-                None => goal,
-            };
             let v: [f64; AXES] = std::array::from_fn(|i| vel[i] * f64::from(PAROL6.joints[i].max_velocity));
             for k in 1..=*count {
                 let f = f64::from(k) / f64::from(*count);
@@ -781,9 +760,6 @@ impl Driver for Pair {
     }
     fn state(&self) -> State {
         self.a.k.state()
-    }
-    fn speed_fraction(&self) -> Option<f64> {
-        Some(0.5)
     }
 }
 

@@ -471,7 +471,6 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
         beta,
         deadband,
         command_timeout_ms,
-        settle_ms,
         soft_stop_ms,
         stop_budget_ms,
         max_step_rate,
@@ -494,7 +493,6 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let h = fnv_f32(h, beta);
     let h = fnv_f32(h, deadband);
     let h = fnv_u32(h, command_timeout_ms);
-    let h = fnv_u32(h, settle_ms);
     let h = fnv_u32(h, soft_stop_ms);
     let h = fnv_u32(h, stop_budget_ms);
     let h = fnv_u32(h, max_step_rate);
@@ -558,7 +556,6 @@ mod tests {
             Box::new(|c| c.beta += 0.0001),
             Box::new(|c| c.deadband = 0.001),
             Box::new(|c| c.command_timeout_ms += 1),
-            Box::new(|c| c.settle_ms += 1),
             Box::new(|c| c.soft_stop_ms += 1),
             Box::new(|c| c.stop_budget_ms += 1),
             Box::new(|c| c.max_step_rate += 1),
