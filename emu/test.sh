@@ -52,6 +52,11 @@ qemu-system-arm --version | head -1
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
 rustc --version
 
+step "fmt and clippy of this workspace (warnings are errors)"
+cargo fmt --all -- --check
+cargo clippy --locked -q -p emu-common -p emu-host --all-targets -- -D warnings
+cargo clippy --locked -q -p emu-target --target thumbv7em-none-eabihf --release -- -D warnings
+
 step "host: build emu-host, replay the recorded scenario"
 cargo build --release --locked -q -p emu-host
 HOST="$CARGO_TARGET_DIR/release/emu-host"

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use emu_common::{encode_tick, header, replay, Bits, Hooks, Reader};
-use kernel::config::{Direction, ArmConfig, AXES, PAROL6};
+use kernel::config::{ArmConfig, Direction, AXES, PAROL6};
 use kernel::homing::Phase;
 use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Sense, State};
 use protocol::{DialectLock, Parser};
@@ -58,10 +58,9 @@ impl Plant {
     }
     fn apply(&mut self, step_rate: &[i32; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
-        for i in 0..AXES {
-            let j = &self.cfg.joints[i];
+        for ((q, j), rate) in self.q.iter_mut().zip(self.cfg.joints.iter()).zip(step_rate.iter()) {
             let dir = if j.motor_reversed { -1.0 } else { 1.0 };
-            self.q[i] += dir * f64::from(step_rate[i]) / j.steps_per_rad() * dt;
+            *q += dir * f64::from(*rate) / j.steps_per_rad() * dt;
         }
     }
 }
@@ -347,18 +346,14 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
             .filter(|(_, ok)| **ok)
             .map(|((c, f), _)| (c.saturating_sub(ovh), f.0))
             .collect();
-        let rejected: Vec<u64> = parses
-            .iter()
-            .zip(&fr)
-            .zip(&motion_ok)
-            .filter(|((_, f), ok)| f.1 && !**ok)
-            .map(|((c, _), _)| *c)
-            .collect();
+        let rejected: Vec<u64> =
+            parses.iter().zip(&fr).zip(&motion_ok).filter(|((_, f), ok)| f.1 && !**ok).map(|((c, _), _)| *c).collect();
         row(&mut out, "parse one accepted driver motion frame", var, &motion.iter().map(|m| m.0).collect::<Vec<_>>());
         row(&mut out, "parse one rejected motion frame", var, &rejected);
         let bytes: usize = motion.iter().map(|m| m.1).sum();
         let instr: u64 = motion.iter().map(|m| m.0).sum();
-        let (lmin, lmax) = (motion.iter().map(|m| m.1).min().unwrap_or(0), motion.iter().map(|m| m.1).max().unwrap_or(0));
+        let (lmin, lmax) =
+            (motion.iter().map(|m| m.1).min().unwrap_or(0), motion.iter().map(|m| m.1).max().unwrap_or(0));
         let ppb: Vec<f64> = motion.iter().map(|m| m.0 as f64 / m.1 as f64).collect();
         let pmin = ppb.iter().cloned().fold(f64::INFINITY, f64::min);
         let pmax = ppb.iter().cloned().fold(0.0, f64::max);
@@ -375,7 +370,11 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
     writeln!(out, "| measured | variant | samples | min | median | max | max/min | mean |").unwrap();
     writeln!(out, "|---|---|---:|---:|---:|---:|---:|---:|").unwrap();
     out.push_str(&per_state);
-    writeln!(out, "\nParser cost per byte (accepted driver motion frames of the scenario, marker overhead subtracted):\n").unwrap();
+    writeln!(
+        out,
+        "\nParser cost per byte (accepted driver motion frames of the scenario, marker overhead subtracted):\n"
+    )
+    .unwrap();
     writeln!(out, "| variant | frames | bytes per frame | mean bytes | instructions per byte (total/total) | min per frame | max per frame |").unwrap();
     writeln!(out, "|---|---:|---|---:|---:|---:|---:|").unwrap();
     out.push_str(&per_byte);

@@ -95,10 +95,18 @@ impl Hooks for Out {
         self.push(b"\n");
     }
     fn before_parse(&mut self) {
-        if self.variant == 0 { emu_parse_f32_start() } else { emu_parse_fx_start() }
+        if self.variant == 0 {
+            emu_parse_f32_start()
+        } else {
+            emu_parse_fx_start()
+        }
     }
     fn after_parse(&mut self) {
-        if self.variant == 0 { emu_parse_f32_stop() } else { emu_parse_fx_stop() }
+        if self.variant == 0 {
+            emu_parse_f32_stop()
+        } else {
+            emu_parse_fx_stop()
+        }
     }
     fn before_tick(&mut self) {
         // Paint the window below the current stack pointer; after the tick
@@ -109,10 +117,18 @@ impl Hooks for Out {
             unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
             a += 4;
         }
-        if self.variant == 0 { emu_tick_f32_start() } else { emu_tick_fx_start() }
+        if self.variant == 0 {
+            emu_tick_f32_start()
+        } else {
+            emu_tick_fx_start()
+        }
     }
     fn after_tick(&mut self) {
-        if self.variant == 0 { emu_tick_f32_stop() } else { emu_tick_fx_stop() }
+        if self.variant == 0 {
+            emu_tick_f32_stop()
+        } else {
+            emu_tick_fx_stop()
+        }
         let low = stack_low_water(self.tick_sp - TICK_WINDOW, self.tick_sp - 16);
         let used = self.tick_sp - low;
         let v = usize::from(self.variant);
@@ -191,7 +207,11 @@ fn main() -> ! {
     // IEEE single precision in hardware: 1/3 rounds to 0x3eaaaaab; a*b+c
     // rounded twice (no fusion) differs from the fused result here.
     let third = core::hint::black_box(1.0f32) / core::hint::black_box(3.0f32);
-    let (a, b, c) = (core::hint::black_box(1.0f32 + f32::EPSILON), core::hint::black_box(1.0f32 - f32::EPSILON), core::hint::black_box(-1.0f32));
+    let (a, b, c) = (
+        core::hint::black_box(1.0f32 + f32::EPSILON),
+        core::hint::black_box(1.0f32 - f32::EPSILON),
+        core::hint::black_box(-1.0f32),
+    );
     let unfused = a * b + c;
     note!("fpu: 1/3 = {:#010x}, (1+e)(1-e)-1 = {:#010x} (separately rounded: 0x00000000; fused would be -e^2 = 0xa5000000)", third.to_bits(), unfused.to_bits());
     if third.to_bits() != 0x3eaa_aaab || unfused.to_bits() != 0 {
@@ -217,7 +237,23 @@ fn main() -> ! {
         emu_cal_stop();
     }
 
-    let mut out = Out { stdout: match hio::hstdout() { Ok(s) => s, Err(()) => { debug::exit(debug::EXIT_FAILURE); loop {} } }, buf: [0; 8192], len: 0, variant: 0, tick_sp: 0, tick_stack: [0; 2] };
+    let mut out = Out {
+        stdout: match hio::hstdout() {
+            Ok(s) => s,
+            Err(()) => {
+                debug::exit(debug::EXIT_FAILURE);
+                // Not reached under QEMU (semihosting exit ends the run).
+                loop {
+                    cortex_m::asm::wfi();
+                }
+            }
+        },
+        buf: [0; 8192],
+        len: 0,
+        variant: 0,
+        tick_sp: 0,
+        tick_stack: [0; 2],
+    };
     match replay::<f32, _>(&PAROL6, SCENARIO_F32, &mut out) {
         Ok(n) => note!("f32: {n} ticks replayed"),
         Err(e) => {
@@ -238,11 +274,15 @@ fn main() -> ! {
     let low = stack_low_water(lo, hi);
     for (v, name) in ["f32", "fx"].iter().enumerate() {
         let d = out.tick_stack[v];
-        note!("stack: {name} tick, deepest use {d} bytes below the caller's stack pointer{}", if d + 16 >= TICK_WINDOW { " (window full: at least this)" } else { "" });
+        note!(
+            "stack: {name} tick, deepest use {d} bytes below the caller's stack pointer{}",
+            if d + 16 >= TICK_WINDOW { " (window full: at least this)" } else { "" }
+        );
     }
     note!("stack: whole program (main, replay, formatting, tick), deepest use {} bytes (top {top:#x}, low-water {low:#x}, painted {lo:#x}..{hi:#x})", top - low);
     note!("{}", if ok { "emu-target: PASS" } else { "emu-target: FAIL" });
     debug::exit(if ok { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
-    #[allow(clippy::empty_loop)]
-    loop {}
+    loop {
+        cortex_m::asm::wfi();
+    }
 }
