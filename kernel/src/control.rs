@@ -28,6 +28,9 @@ mod tests {
         assert_eq!(control_law(10.0f32, 0.0, 0.0, 5.0, 3.0, 0.0), (3.0, true));
         assert_eq!(control_law(-10.0f32, 0.0, 0.0, 5.0, 3.0, 0.0), (-3.0, true));
         assert_eq!(control_law(0.0f32, 0.01, 0.0, 5.0, 3.0, 0.02), (0.0, true));
+        // Exactly at the deadband the output passes (only below is zeroed).
+        assert_eq!(control_law(0.0f32, 0.25, 0.0, 5.0, 3.0, 0.25), (0.25, true));
+        assert_eq!(control_law(0.0f32, -0.25, 0.0, 5.0, 3.0, 0.25), (-0.25, true));
     }
 
     #[test]

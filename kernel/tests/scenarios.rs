@@ -44,6 +44,9 @@ both!(
     acceleration_is_limited_in_operational,
     encoder_lost_while_fast_does_not_block_enable_forever,
     a_single_far_target_is_cut_short_by_the_timeout,
+    targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected,
+    boot_timeout_names_the_unready_encoder_on_time,
+    counts_out_of_range_are_lost_samples,
 );
 
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
@@ -318,6 +321,75 @@ fn nan_and_out_of_range_targets_are_rejected_whole<S: Scalar>() {
         assert!((after[i] - before[i]).abs() < 1e-3);
     }
     assert_eq!(r.k.state(), State::Operational);
+}
+
+/// Limits are closed intervals: a target exactly at a joint limit, or a
+/// velocity of exactly vmax, is accepted; one step outside is rejected, on
+/// either side. (Added for mutants of `TargetLimits::check` that the
+/// kernel's tests did not catch.)
+fn targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected<S: Scalar>() {
+    let mut r = homed::<S>();
+    let q = r.plant.q.map(|x| S::from_f32(x as f32));
+    let j = &PAROL6.joints[2];
+    let at = |pos: S, vel: S| {
+        let mut t = kernel::MotionTarget { position: q, velocity: [S::ZERO; AXES] };
+        t.position[2] = pos;
+        t.velocity[2] = vel;
+        Request::Motion(t)
+    };
+    let (lo, hi, vmax) = (S::from_f32(j.limit_min), S::from_f32(j.limit_max), S::from_f32(j.max_velocity));
+    for (pos, vel) in [(lo, S::ZERO), (hi, S::ZERO), (q[2], vmax), (q[2], vmax.neg())] {
+        let out = r.tick(Some(at(pos, vel)));
+        assert!(out.events.is_empty(), "{pos:?} {vel:?}: {:?}", out.events);
+    }
+    let d = S::from_f32(0.01);
+    for (pos, vel, reason) in [
+        (lo.minus(d), S::ZERO, Reject::PositionOutOfLimits { axis: 2 }),
+        (hi.plus(d), S::ZERO, Reject::PositionOutOfLimits { axis: 2 }),
+        (q[2], vmax.plus(d), Reject::VelocityTooHigh { axis: 2 }),
+        (q[2], vmax.plus(d).neg(), Reject::VelocityTooHigh { axis: 2 }),
+    ] {
+        let out = r.tick(Some(at(pos, vel)));
+        assert!(
+            out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason }),
+            "{pos:?} {vel:?}: {:?}",
+            out.events
+        );
+    }
+}
+
+/// An encoder that never reads: Boot lasts exactly the boot timeout, then a
+/// fault naming that encoder (kept by `fault()`).
+fn boot_timeout_names_the_unready_encoder_on_time<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.plant.encoder_lost[4] = true;
+    let n = kernel::config::ms_to_ticks(PAROL6.boot_timeout_ms, PAROL6.tick_hz);
+    for t in 0..n {
+        let out = r.tick(None);
+        assert_eq!(out.status.state, State::Boot, "tick {t}");
+    }
+    let out = r.tick(None);
+    assert_eq!(out.status.state, State::Fault);
+    let want = FaultReason::EncoderNotReady { axis: 4 };
+    assert_eq!(out.status.fault.unwrap().reason, want);
+    assert_eq!(r.k.fault().map(|f| f.reason), Some(want));
+}
+
+/// A reading of 4096 or more is not a count of a 12-bit encoder: it is
+/// treated as a lost sample (ridden through, then a fault), never unwrapped.
+fn counts_out_of_range_are_lost_samples<S: Scalar>() {
+    let mut r = homed::<S>();
+    let limit = PAROL6.encoder_invalid_limit;
+    let mut out = None;
+    for k in 0..=limit {
+        let mut sense = r.plant.sense();
+        sense.encoders[1] = kernel::EncoderSample::Count(4096);
+        let o = r.k.tick(&sense, None);
+        let want = if k < limit { State::Operational } else { State::Fault };
+        assert_eq!(o.status.state, want, "sample {k}");
+        out = Some(o);
+    }
+    assert_eq!(out.unwrap().status.fault.unwrap().reason, FaultReason::EncoderLost { axis: 1 });
 }
 
 /// C++ defect 4: enable cleared a fault while a limit switch was pressed.
