@@ -119,6 +119,21 @@ mod tests {
     }
 
     #[test]
+    fn coast_predicts_and_last_is_the_reading() {
+        let g = ObserverGains { alpha: 0.1f32, beta_hz: 5.0, dt: 0.001 };
+        let mut o = AlphaBeta { x: 1.0f32, v: 2.0 };
+        o.coast(&g);
+        o.coast(&g);
+        assert!((o.x - 1.004).abs() < 1e-6, "{}", o.x);
+        assert_eq!(o.v, 2.0);
+        let mut u = Unwrapper::new(4000);
+        assert_eq!(u.last(), 4000);
+        u.update(7);
+        assert_eq!(u.last(), 7);
+        assert_eq!(u.total(), 4103);
+    }
+
+    #[test]
     fn unwrapping_is_continuous_over_many_turns() {
         let mut u = Unwrapper::new(4000);
         let mut truth: i32 = 4000;

@@ -47,6 +47,12 @@ both!(
     targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected,
     boot_timeout_names_the_unready_encoder_on_time,
     counts_out_of_range_are_lost_samples,
+    a_fault_during_homing_leaves_the_aborted_axes_unhomed,
+    enable_is_refused_while_an_axis_moves_faster_than_its_limit,
+    enable_while_stopping_is_refused_as_stopping,
+    home_outside_boot_starts_at_once,
+    unhomed_arm_outside_the_limits_is_not_a_fault,
+    switch_of_a_homed_axis_at_rest_during_homing_faults,
 );
 
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
@@ -390,6 +396,99 @@ fn counts_out_of_range_are_lost_samples<S: Scalar>() {
         out = Some(o);
     }
     assert_eq!(out.unwrap().status.fault.unwrap().reason, FaultReason::EncoderLost { axis: 1 });
+}
+
+/// A fault aborts a homing run: the run's axes are not homed afterwards
+/// (also after enable), homing reports failure (H3), and the arm is Unhomed.
+fn a_fault_during_homing_leaves_the_aborted_axes_unhomed<S: Scalar>() {
+    let mut r = homed::<S>();
+    assert_eq!(r.k.homed(), 0b11_1111);
+    // Re-home J1..J3 only (their dependencies are homed); fault mid-run.
+    r.tick(Some(Request::HomeJoint(0)));
+    assert_eq!(r.k.state(), State::Homing);
+    r.run(20);
+    let mut sense = r.plant.sense();
+    sense.hardware_fault = Some(kernel::HardwareFault::TickOverrun);
+    let out = r.k.tick(&sense, None);
+    assert_eq!(out.status.state, State::Fault);
+    assert_eq!(out.status.homing, HomingStatus::Failed);
+    assert_eq!(out.status.homed, 0b11_1110, "J1's aborted run is not homed");
+    let out = r.enable();
+    assert_eq!(out.status.state, State::Unhomed);
+    assert_eq!(out.status.homed, 0b11_1110);
+}
+
+/// Enable is refused while an axis moves faster than its velocity limit
+/// (here pushed at 1.05 vmax, below the runaway threshold), and accepted
+/// once it has stopped.
+fn enable_is_refused_while_an_axis_moves_faster_than_its_limit<S: Scalar>() {
+    let mut r = homed::<S>();
+    r.plant.force_switch = 0b1;
+    assert_eq!(r.tick(None).status.state, State::Fault);
+    r.plant.force_switch = 0;
+    let vmax = f64::from(PAROL6.joints[3].max_velocity);
+    r.plant.disturbance[3] = 1.05 * vmax;
+    r.run(100);
+    let out = r.enable();
+    assert!(
+        out.events.iter().any(|e| *e
+            == Event::Rejected {
+                request: RequestKind::Enable,
+                reason: Reject::CauseActive(FaultReason::Runaway { axis: 3 })
+            }),
+        "{:?}",
+        out.events
+    );
+    r.plant.disturbance[3] = 0.0;
+    r.run(300);
+    assert_eq!(r.enable().status.state, State::Operational);
+}
+
+/// During the soft-stop ramp enable is refused with its own reason.
+fn enable_while_stopping_is_refused_as_stopping<S: Scalar>() {
+    let mut r = homed::<S>();
+    r.motion(r.plant.q);
+    r.run_until(200, |o| o.status.state == State::Stopping).expect("timeout");
+    let out = r.enable();
+    assert!(
+        out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Enable, reason: Reject::Stopping }),
+        "{:?}",
+        out.events
+    );
+}
+
+/// `<HOME>` outside Boot starts homing in the same tick (the queued event is
+/// for Boot only).
+fn home_outside_boot_starts_at_once<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.run(3);
+    let out = r.tick(Some(Request::Home));
+    assert_eq!(out.status.state, State::Homing);
+    assert!(out.events.iter().any(|e| *e == Event::HomingStarted { mask: 0b11_1111 }), "{:?}", out.events);
+    assert!(!out.events.iter().any(|e| *e == Event::HomingQueued));
+}
+
+/// Before homing the estimate is not in the joint frame: a power-on pose
+/// outside the joint limits is not a position fault (only homed, moving
+/// axes are checked).
+fn unhomed_arm_outside_the_limits_is_not_a_fault<S: Scalar>() {
+    let mut pose = START;
+    pose[0] = f64::from(PAROL6.joints[0].limit_max) + 0.5;
+    let mut r = Rig::<S>::new(pose);
+    let out = r.run(50);
+    assert_eq!(out.status.state, State::Unhomed, "{:?}", out.status.fault);
+}
+
+/// During homing a pressed switch of a homed axis at rest means something
+/// moved it: a fault.
+fn switch_of_a_homed_axis_at_rest_during_homing_faults<S: Scalar>() {
+    let mut r = homed::<S>();
+    r.tick(Some(Request::HomeJoint(0)));
+    r.run(5);
+    assert_eq!(r.k.state(), State::Homing);
+    r.plant.force_switch = 0b10_0000; // J6: homed, not in this run
+    let out = r.tick(None);
+    assert_eq!(out.status.fault.map(|f| f.reason), Some(FaultReason::LimitSwitch { axis: 5 }));
 }
 
 /// C++ defect 4: enable cleared a fault while a limit switch was pressed.
