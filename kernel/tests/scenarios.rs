@@ -73,6 +73,23 @@ fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
             request: RequestKind::Enable,
             reason: Reject::CauseActive(FaultReason::PositionLimit { axis: 1 })
         }));
+
+    // The lower side: J3 (its switch is at the upper end) dragged below.
+    let mut r = homed::<S>();
+    r.plant.disturbance[2] = -(f64::from(PAROL6.joints[2].max_velocity) + 0.5);
+    r.run_until(10_000, |o| o.status.state == State::Fault).expect("position fault");
+    assert_eq!(r.last.unwrap().status.fault.unwrap().reason, FaultReason::PositionLimit { axis: 2 });
+    r.plant.disturbance[2] = 0.0;
+    let out = r.enable();
+    assert!(
+        out.events.iter().any(|e| *e
+            == Event::Rejected {
+                request: RequestKind::Enable,
+                reason: Reject::CauseActive(FaultReason::PositionLimit { axis: 2 })
+            }),
+        "{:?}",
+        out.events
+    );
 }
 
 fn homed<S: Scalar>() -> Rig<S> {
@@ -290,6 +307,7 @@ fn enable_after_soft_stop_resyncs_without_a_jump<S: Scalar>() {
     r.run_until(1000, |o| o.status.state == State::SoftEstop).unwrap();
     let out = r.enable();
     assert!(out.events.iter().any(|e| *e == Event::Enabled(State::Operational)));
+    assert_eq!(out.status.homing, HomingStatus::Complete, "still homed: H2");
     // Set-points equal the estimates: the control output is ~zero.
     for i in 0..AXES {
         assert!((out.status.setpoint[i].to_f32() - out.status.position[i].to_f32()).abs() < 1e-3);
@@ -472,10 +490,13 @@ fn home_outside_boot_starts_at_once<S: Scalar>() {
 /// outside the joint limits is not a position fault (only homed, moving
 /// axes are checked).
 fn unhomed_arm_outside_the_limits_is_not_a_fault<S: Scalar>() {
-    let mut pose = START;
-    pose[0] = f64::from(PAROL6.joints[0].limit_max) + 0.5;
-    let mut r = Rig::<S>::new(pose);
-    let out = r.run(50);
+    let mut r = Rig::<S>::new(START);
+    r.run(3);
+    // Pushed slowly (0.5 rad/s for 4 s) to 2 rad beyond J1's upper limit.
+    r.plant.disturbance[0] = 0.5;
+    let out = r.run(4000 + (1000.0 * (f64::from(PAROL6.joints[0].limit_max) - START[0])) as u32 * 2);
+    r.plant.disturbance[0] = 0.0;
+    assert!(out.status.position[0].to_f32() > PAROL6.joints[0].limit_max + 1.0, "{:?}", out.status.position);
     assert_eq!(out.status.state, State::Unhomed, "{:?}", out.status.fault);
 }
 
@@ -486,13 +507,32 @@ fn switch_of_a_homed_axis_at_rest_during_homing_faults<S: Scalar>() {
     r.tick(Some(Request::HomeJoint(0)));
     r.run(5);
     assert_eq!(r.k.state(), State::Homing);
+    let phases = r.k.homing_phases();
+    assert!(phases[1..].iter().all(|p| *p == kernel::homing::Phase::Idle), "outside the run: {phases:?}");
     r.plant.force_switch = 0b10_0000; // J6: homed, not in this run
     let out = r.tick(None);
     assert_eq!(out.status.fault.map(|f| f.reason), Some(FaultReason::LimitSwitch { axis: 5 }));
+
+    // An axis not yet homed that rests on its switch while it waits for its
+    // group is not a fault: homing will seek from there.
+    let mut r = Rig::<S>::new(START);
+    r.run(3);
+    r.plant.force_switch = 0b1; // J1 waits for J6, J5, J4
+    r.tick(Some(Request::Home));
+    let out = r.run(20);
+    assert_eq!(out.status.state, State::Homing, "{:?}", out.status.fault);
 }
 
 /// C++ defect 4: enable cleared a fault while a limit switch was pressed.
 fn limit_switch_outside_homing_faults_and_enable_is_refused_while_pressed<S: Scalar>() {
+    {
+        // A fault that loses no zero keeps homing complete (H2).
+        let mut r = homed::<S>();
+        r.plant.force_switch = 0b100;
+        let out = r.tick(None);
+        assert_eq!(out.status.state, State::Fault);
+        assert_eq!(out.status.homing, HomingStatus::Complete);
+    }
     let mut r = homed::<S>();
     r.motion(r.plant.q);
     r.plant.force_switch = 0b100; // J3
@@ -548,13 +588,16 @@ fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
     let out = r.tick(None);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::EncoderLost { axis: 2 });
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
+    // Only J3 loses its zero; homing is no longer complete (H0, not H2).
+    assert_eq!(out.status.homed, 0b11_1011);
+    assert_eq!(out.status.homing, HomingStatus::NotRequested);
     let out = r.enable();
     assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::CauseActive(_), .. })));
     r.plant.encoder_lost[2] = false;
     let out = r.enable();
-    // J3's count was lost: it must be homed again.
+    // J3's count was lost: it must be homed again; the others keep theirs.
     assert_eq!(out.status.state, State::Unhomed);
-    assert_eq!(out.status.homed & 0b100, 0);
+    assert_eq!(out.status.homed, 0b11_1011);
     assert_ne!(out.status.homing, HomingStatus::Complete);
 
     // A single glitch is skipped; a persistent jump faults.
