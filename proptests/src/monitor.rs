@@ -20,6 +20,11 @@ use kernel::{
 /// settled (the observer's time constant is about 1/alpha = 10 ticks).
 pub const QUIET_TICKS: u32 = 300;
 
+/// A sample the kernel accepts as a reading: a count of the 12-bit encoder.
+fn is_count(e: &EncoderSample) -> bool {
+    matches!(*e, EncoderSample::Count(c) if i32::from(c) < COUNTS_PER_REV)
+}
+
 /// Joints that must be homed (and have finished homing) before joint `i`
 /// may move during homing: SR-13, the seed's order J6; J5, J4; J1, J2, J3.
 pub const SEED_DEPENDENCIES: [u8; AXES] = [0b11_1000, 0b11_1000, 0b11_1000, 0b10_0000, 0b10_0000, 0];
@@ -367,9 +372,8 @@ impl<S: Scalar> Monitor<S> {
         // sensors or state; after it, set-points are the measured positions
         // and the timeout is disarmed.
         let enabled = ev.iter().find_map(|e| if let Event::Enabled(s) = e { Some(*s) } else { None });
-        let sensed_cause = sense.hardware_fault.is_some()
-            || sense.limits & 0b11_1111 != 0
-            || sense.encoders.iter().any(|e| !matches!(e, EncoderSample::Count(c) if i32::from(*c) < COUNTS_PER_REV));
+        let sensed_cause =
+            sense.hardware_fault.is_some() || sense.limits & 0b11_1111 != 0 || !sense.encoders.iter().all(is_count);
         // SR-6, liveness: a cause named by a refusal is real. After the arm
         // has rested with nothing injected for `QUIET_TICKS` the estimates
         // have settled, so no speed is a cause, and a lost encoder, a switch
@@ -383,9 +387,7 @@ impl<S: Scalar> Monitor<S> {
                 if let Event::Rejected { reason: Reject::CauseActive(c), .. } = e {
                     let real = match *c {
                         FaultReason::Runaway { .. } => false,
-                        FaultReason::EncoderLost { axis } => {
-                            !matches!(sense.encoders[usize::from(axis)], EncoderSample::Count(n) if i32::from(n) < COUNTS_PER_REV)
-                        }
+                        FaultReason::EncoderLost { axis } => !is_count(&sense.encoders[usize::from(axis)]),
                         FaultReason::LimitSwitch { axis } => sense.limits & (1 << axis) != 0,
                         FaultReason::Hardware(_) => sense.hardware_fault.is_some(),
                         _ => true,
@@ -539,7 +541,7 @@ impl<S: Scalar> Monitor<S> {
         // SR-11: more than `encoder_invalid_limit` invalid samples in a row
         // (outside Boot) is a fault, and that joint must be homed again.
         for i in 0..AXES {
-            let valid = matches!(sense.encoders[i], EncoderSample::Count(c) if i32::from(c) < COUNTS_PER_REV);
+            let valid = is_count(&sense.encoders[i]);
             self.lost_streak[i] = if valid { 0 } else { self.lost_streak[i] + 1 };
             if self.lost_streak[i] > cfg.encoder_invalid_limit && prev != State::Boot {
                 ensure!(st == State::Fault, "SR-11: encoder {i} invalid for {} ticks in {st:?}", self.lost_streak[i]);

@@ -488,15 +488,14 @@ pub struct Sut<S: Variant> {
 }
 
 impl<S: Variant> Sut<S> {
-    /// Power-on at `q`.
-    pub fn fresh(q: [f64; AXES], offset: [f64; AXES]) -> Self {
-        let (k, auth) = Kernel::new(&PAROL6);
+    /// A kernel and its plant, monitor and tick count; no history yet.
+    fn from_parts(k: Kernel<S>, auth: Authority, plant: Plant, mon: Monitor<S>, ticks: u64) -> Self {
         Sut {
             k,
             auth,
-            plant: Plant::new(q, offset),
-            mon: Monitor::new(&PAROL6),
-            ticks: 0,
+            plant,
+            mon,
+            ticks,
             last_injection: None,
             homing_started: None,
             rest_q: [f64::NAN; AXES],
@@ -505,6 +504,12 @@ impl<S: Variant> Sut<S> {
             recent: VecDeque::new(),
             last: None,
         }
+    }
+
+    /// Power-on at `q`.
+    pub fn fresh(q: [f64; AXES], offset: [f64; AXES]) -> Self {
+        let (k, auth) = Kernel::new(&PAROL6);
+        Self::from_parts(k, auth, Plant::new(q, offset), Monitor::new(&PAROL6), 0)
     }
 
     /// From a start description.
@@ -524,20 +529,7 @@ impl<S: Variant> Sut<S> {
                 // Any `Authority` mints capabilities for any kernel; the one
                 // from the snapshot's `Kernel::new` was not kept.
                 let (_, auth) = Kernel::<S>::new(&PAROL6);
-                Sut {
-                    k: s.kernel,
-                    auth,
-                    plant: s.plant,
-                    mon: s.mon,
-                    ticks: s.ticks,
-                    last_injection: None,
-                    homing_started: None,
-                    rest_q: [f64::NAN; AXES],
-                    quiet: 0,
-                    boot_lost_until: None,
-                    recent: VecDeque::new(),
-                    last: None,
-                }
+                Self::from_parts(s.kernel, auth, s.plant, s.mon, s.ticks)
             }
         }
     }
@@ -667,7 +659,7 @@ pub struct Pair {
     pub bound_q: f64,
     /// Consecutive ticks (so far) the two kernels' homing phases differ.
     pub skew: u32,
-    /// Longest such run, and all ticks with differing phases.
+    /// Longest such run.
     pub worst_skew: u32,
     /// Ticks whose homing phases differed (outputs not compared).
     pub skew_ticks: u64,
