@@ -1,10 +1,15 @@
-//! Pure glue of the PAROL6 firmware image, host-tested.
+//! The PAROL6 firmware's composition root and its pure glue, host-tested.
 //!
 //! The image itself (`src/main.rs`, `src/target/`) is built only for
-//! `thumbv7em-none-eabihf` by `firmware/build.sh`. Everything here is
-//! arithmetic or policy without registers, used by the tick handler and
-//! the main loop:
+//! `thumbv7em-none-eabihf` by `firmware/build.sh`; it binds the board
+//! interface ([`board`]) to `hal_imxrt::periph` and runs [`root`]. The
+//! simulator (`sim/`) binds the same interface to a simulated arm and runs
+//! the same [`root`], so what the simulator exercises is what is flashed.
+//! Everything here is arithmetic or policy without registers:
 //!
+//! * [`root`]: the composition root (tick half and main-loop half);
+//! * [`board`]: the board interface the root is generic over;
+//! * [`tx`]: the transmit ring with counted, reported drops;
 //! * [`sense`]: HAL readings -> [`kernel::Sense`];
 //! * [`act`]: kernel step rates -> `hal_imxrt` step commands (all or none);
 //! * [`boot_fault`]: reset cause and self-test -> [`kernel::HardwareFault`];
@@ -12,6 +17,10 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
+
+pub mod board;
+pub mod root;
+pub mod tx;
 
 use hal_imxrt::pure::debounce::LimitState;
 use hal_imxrt::pure::encoder::EncoderReading;

@@ -24,10 +24,12 @@ pub enum FeedbackMode {
     Driver,
     /// Only the configurator's line (about 110 bytes).
     Configurator,
-    /// The configurator's line, then the driver's (the driver keeps the
-    /// newest `<` line; the configurator's regex skips the `H` line). At
-    /// 50 Hz this is about 10.5 kB/s: over 90 % of a 115200-baud UART, so
-    /// use it on USB only.
+    /// Both clients on one stream, without a race: the configurator's line
+    /// is sent with one leading space (` <ACK,...>`), which the ROS 2
+    /// driver ignores (it keeps only lines that *start* with `<`) and the
+    /// configurator strips before its regex; the driver's line (with its
+    /// `H` token) fails the configurator's regex. So whatever a client
+    /// reads last, it only ever takes its own line. See docs/PROTOCOL.md.
     #[default]
     Both,
 }
@@ -65,6 +67,10 @@ pub fn driver_line<S: Scalar>(out: &mut Line, seq: u32, status: &Status<S>) -> R
 /// the measured control-interrupt time `tick_us` last, `\n`-terminated.
 pub fn configurator_line<S: Scalar>(out: &mut Line, seq: u32, status: &Status<S>, tick_us: u32) -> Result<(), Full> {
     out.clear();
+    configurator_body(out, seq, status, tick_us)
+}
+
+fn configurator_body<S: Scalar>(out: &mut Line, seq: u32, status: &Status<S>, tick_us: u32) -> Result<(), Full> {
     push_str(out, "<ACK,")?;
     push_u32(out, seq)?;
     for v in status.position.iter().chain(&status.velocity) {
@@ -77,6 +83,19 @@ pub fn configurator_line<S: Scalar>(out: &mut Line, seq: u32, status: &Status<S>
     push_byte(out, b',')?;
     push_u32(out, tick_us)?;
     push_str(out, ">\n")
+}
+
+/// The configurator's line with one leading space, for [`FeedbackMode::Both`]
+/// (the ROS 2 driver ignores lines that do not start with `<`).
+pub fn configurator_line_beside_driver<S: Scalar>(
+    out: &mut Line,
+    seq: u32,
+    status: &Status<S>,
+    tick_us: u32,
+) -> Result<(), Full> {
+    out.clear();
+    push_byte(out, b' ')?;
+    configurator_body(out, seq, status, tick_us)
 }
 
 /// Divides the tick rate down to the feedback rate.

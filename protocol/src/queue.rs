@@ -38,6 +38,9 @@ pub enum Telemetry<S> {
         status: Status<S>,
         /// Duration of the control interrupt (us).
         tick_us: u32,
+        /// SEQ of the last motion frame the kernel took (handed to it and
+        /// not refused), for the feedback's ACK field; 0 before the first.
+        ack: u32,
     },
     /// A kernel event.
     Event(Event),

@@ -353,28 +353,37 @@ pub fn banner_line(
 
 /// Turns one telemetry element into its output lines (in order), calling
 /// `emit` for each: a status gives the feedback line(s) of `mode`
-/// acknowledging `ack_seq` (configurator line first in `Both`), an event its
-/// event line, a loss its `EVENTS_LOST` / `TELEMETRY_LOST` line.
+/// acknowledging the status's `ack` (in `Both`, the configurator's line
+/// first, with its leading space, and only if `configurator_due`), an event
+/// its event line, a loss its `EVENTS_LOST` / `TELEMETRY_LOST` line.
 pub fn telemetry_lines<S: kernel::Scalar>(
     t: &crate::queue::Telemetry<S>,
     mode: FeedbackMode,
-    ack_seq: u32,
+    configurator_due: bool,
     out: &mut Line,
-    mut emit: impl FnMut(&str),
+    mut emit: impl FnMut(&Line),
 ) -> Result<(), Full> {
-    use crate::feedback::{configurator_line, driver_line};
+    use crate::feedback::{configurator_line, configurator_line_beside_driver, driver_line};
     use crate::queue::Telemetry;
     match t {
-        Telemetry::Status { status, tick_us } => {
-            if matches!(mode, FeedbackMode::Configurator | FeedbackMode::Both) {
-                configurator_line(out, ack_seq, status, *tick_us)?;
+        Telemetry::Status { status, tick_us, ack } => match mode {
+            FeedbackMode::Configurator => {
+                configurator_line(out, *ack, status, *tick_us)?;
                 emit(out);
             }
-            if matches!(mode, FeedbackMode::Driver | FeedbackMode::Both) {
-                driver_line(out, ack_seq, status)?;
+            FeedbackMode::Driver => {
+                driver_line(out, *ack, status)?;
                 emit(out);
             }
-        }
+            FeedbackMode::Both => {
+                if configurator_due {
+                    configurator_line_beside_driver(out, *ack, status, *tick_us)?;
+                    emit(out);
+                }
+                driver_line(out, *ack, status)?;
+                emit(out);
+            }
+        },
         Telemetry::Event(e) => {
             event_line(out, e)?;
             emit(out);
@@ -389,6 +398,27 @@ pub fn telemetry_lines<S: kernel::Scalar>(
         }
     }
     Ok(())
+}
+
+/// `TX_LOST n=<n>`: output lines the port could not take and that were
+/// dropped (feedback first, then reports; never a fault or stop line).
+/// With `port_closed`, `TX_LOST n=<n> reason=PORT_CLOSED`: lines produced
+/// while no host had the port open.
+pub fn tx_lost_line(out: &mut Line, n: u32, port_closed: bool) -> Result<(), Full> {
+    out.clear();
+    push_str(out, "TX_LOST")?;
+    kv(out, "n", n)?;
+    if port_closed {
+        push_str(out, " reason=PORT_CLOSED")?;
+    }
+    push_byte(out, b'\n')
+}
+
+/// True for the event lines that must reach the host whatever else is lost:
+/// a latched fault (homing faults included), the soft E-stop and its end,
+/// and a cleared latch.
+pub const fn is_critical(e: &Event) -> bool {
+    matches!(e, Event::Fault(_) | Event::SoftEstop { .. } | Event::Stopped | Event::Enabled(_))
 }
 
 // ---- configuration fingerprint -------------------------------------------
@@ -526,14 +556,22 @@ mod tests {
         };
         let mut out = Line::new();
         let mut lines = Vec::new();
-        let t = Telemetry::Status { status, tick_us: 9 };
-        telemetry_lines(&t, FeedbackMode::Both, 3, &mut out, |l| lines.push(l.to_string())).unwrap();
-        telemetry_lines(&Telemetry::<f32>::Lost(2), FeedbackMode::Both, 3, &mut out, |l| lines.push(l.to_string()))
+        let t = Telemetry::Status { status, tick_us: 9, ack: 3 };
+        telemetry_lines(&t, FeedbackMode::Both, true, &mut out, |l| lines.push(l.to_string())).unwrap();
+        telemetry_lines(&t, FeedbackMode::Both, false, &mut out, |l| lines.push(l.to_string())).unwrap();
+        telemetry_lines(&Telemetry::<f32>::Lost(2), FeedbackMode::Both, true, &mut out, |l| lines.push(l.to_string()))
             .unwrap();
-        assert_eq!(lines.len(), 3);
-        assert!(lines[0].ends_with(",1,2,9>\n"), "{}", lines[0]);
-        assert!(lines[1].ends_with(",H1>\n"), "{}", lines[1]);
-        assert_eq!(lines[2], "TELEMETRY_LOST n=2\n");
+        assert_eq!(lines.len(), 4);
+        // Both: the configurator's line indented by one space, then the driver's.
+        assert!(lines[0].starts_with(" <ACK,3,") && lines[0].ends_with(",1,2,9>\n"), "{}", lines[0]);
+        assert!(lines[1].starts_with("<ACK,3,") && lines[1].ends_with(",H1>\n"), "{}", lines[1]);
+        // Not due: the driver's line only.
+        assert!(lines[2].starts_with("<ACK,3,") && lines[2].ends_with(",H1>\n"), "{}", lines[2]);
+        assert_eq!(lines[3], "TELEMETRY_LOST n=2\n");
+        tx_lost_line(&mut out, 7, false).unwrap();
+        assert_eq!(out.as_str(), "TX_LOST n=7\n");
+        tx_lost_line(&mut out, 0, true).unwrap();
+        assert_eq!(out.as_str(), "TX_LOST n=0 reason=PORT_CLOSED\n");
     }
 
     #[test]

@@ -1,9 +1,12 @@
-//! The Teensy 4.1 image: boot, the 1 kHz tick, the main loop, the panic
+//! The Teensy 4.1 image: the board binding of the shared composition root
+//! ([`firmware::root`]), boot, the PIT interrupt, the main loop, the panic
 //! handler. Compiled only for `target_os = "none"`.
 //!
-//! This is the composition root (as `sim/src/root.rs` is for the simulator):
-//! it owns every peripheral once, holds the kernel's [`Authority`], and
-//! wires HAL <-> queues <-> kernel.
+//! No logic lives here: [`Teensy`] implements [`TickBoard`] over
+//! `hal_imxrt::periph`, `port` implements [`Port`] over USB CDC and
+//! LPUART6, and everything else (decode, debounce, sensing, kernel, the
+//! enable authority, actuation mapping, telemetry, line formatting, the
+//! transmit policy) is `firmware::root`, the same code the simulator runs.
 //!
 //! `unsafe` appears only here, each with a `// SAFETY:` comment: taking the
 //! peripheral instances once, the tick context shared between `main` (init,
@@ -32,24 +35,16 @@ use hal_imxrt::periph::uart::Serial1;
 use hal_imxrt::periph::watchdog::Watchdog;
 use hal_imxrt::periph::{clocks, iomux, panic_stop};
 use hal_imxrt::pure::clock::{pit_load_value, rtwdog_toval, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US};
-use hal_imxrt::pure::encoder::{EncoderReading, LossReason, Tracker, TrackerConfig};
-use hal_imxrt::pure::frame::FrameDecoder;
+use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
-use hal_imxrt::pure::step::StepConfig;
+use hal_imxrt::pure::step::StepCommand;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
-use firmware::{CMD_SLOTS, TEL_SLOTS};
+use firmware::board::TickBoard;
+use firmware::root::{self, Controller, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6};
-use kernel::{Authority, HardwareFault, KernelF32, State};
-use protocol::feedback::{configurator_line, driver_line, FeedbackDivider, FeedbackMode};
-use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
-use protocol::receiver::{Received, Receiver};
-use protocol::report::{
-    banner_line, config_fingerprint, event_line, events_lost_line, queue_full_line, telemetry_lost_line,
-};
-use protocol::{Line, ProtocolConfig};
+use protocol::report::config_fingerprint;
 
-use port::Port;
 
 #[cfg(feature = "tmc5160-selftest")]
 compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wiring in the pin map)");
@@ -71,39 +66,71 @@ const BAUD: BaudDivisor = match lpuart_divisor(OSC_HZ, 115_200) {
     Ok(v) => v,
     Err(_) => panic!("baud"),
 };
-/// Boot self-test length (ms): enough for the frame decoder and the
-/// tracker to acquire (about 5 frames) with margin.
-const SELF_TEST_MS: u32 = 30;
-/// Feedback lines: as the simulator (driver format).
-const FEEDBACK: FeedbackMode = FeedbackMode::Driver;
+/// The main loop's settings: both clients on USB, the Serial1 budget on
+/// Serial1 (see `HostConfig::SERIAL1`).
+#[cfg(not(feature = "serial1"))]
+const HOST: HostConfig = HostConfig::USB;
+#[cfg(feature = "serial1")]
+const HOST: HostConfig = HostConfig::SERIAL1;
 /// Teensy LED: pin 13 = GPIO_B0_03 = GPIO2 bit 3.
 const LED_BIT: u32 = 1 << 3;
 
-/// Everything the tick touches. Lives in DTCM (`.bss`, teensy4-bsp's
-/// imxrt-rt layout); the code that runs on it is in ITCM (`.text`).
-struct TickCtx {
-    kernel: KernelF32,
-    authority: Authority,
+/// The board as the tick sees it: the peripheral drivers behind
+/// [`TickBoard`].
+struct Teensy {
     tick: Tick,
     cycles: CycleCounter,
     capture: FrameCapture,
-    decoders: [FrameDecoder; AXES],
-    trackers: [Tracker; AXES],
     gpios: Gpios,
     limits: Limits,
     steps: StepOutputs,
     wdog: Watchdog,
-    link: TickEnd<'static, f32, CMD_SLOTS, TEL_SLOTS>,
-    divider: FeedbackDivider,
-    pending_fault: Option<HardwareFault>,
-    last_us: u32,
+}
+
+impl TickBoard for Teensy {
+    #[inline(always)]
+    fn capture(&mut self) -> [Snapshot; AXES] {
+        self.capture.sample(&self.cycles)
+    }
+    #[inline(always)]
+    fn limit_levels(&mut self) -> u8 {
+        self.limits.levels(&self.gpios)
+    }
+    #[inline(always)]
+    fn apply(&mut self, cmds: &[StepCommand; AXES]) {
+        self.steps.apply(&self.gpios, &self.cycles, cmds);
+    }
+    #[inline(always)]
+    fn feed_watchdog(&mut self) {
+        self.wdog.feed();
+    }
+    #[inline(always)]
+    fn cycles(&self) -> u32 {
+        self.cycles.now()
+    }
+    #[inline(always)]
+    fn end_of_tick(&mut self) -> bool {
+        self.tick.end_of_handler()
+    }
+    fn boot_wait_ms(&mut self) {
+        let t = self.cycles.now();
+        self.cycles.wait_since(t, 600_000);
+        self.wdog.feed();
+    }
+}
+
+/// Everything the tick touches. Lives in DTCM (`.bss`, teensy4-bsp's
+/// imxrt-rt layout); the code that runs on it is in ITCM (`.text`).
+struct TickCtx {
+    controller: Controller<'static>,
+    board: Teensy,
 }
 
 /// Initialised by `main` before the PIT interrupt is unmasked; afterwards
 /// used only by the PIT handler.
 static mut TICK_CTX: MaybeUninit<TickCtx> = MaybeUninit::uninit();
 /// The command/telemetry link; split once in `main`.
-static mut LINK: Link<f32, CMD_SLOTS, TEL_SLOTS> = Link::new();
+static mut LINK: RootLink = RootLink::new();
 /// Survives a reset (imxrt-rt `.uninit`, not zeroed at start-up): set by the
 /// panic handler, read and cleared at boot.
 // SAFETY: `.uninit.parol6_panic` is placed by imxrt-rt's linker script in the
@@ -113,75 +140,14 @@ static mut LINK: Link<f32, CMD_SLOTS, TEL_SLOTS> = Link::new();
 #[unsafe(link_section = ".uninit.parol6_panic")]
 static mut PANIC_MARK: MaybeUninit<u32> = MaybeUninit::uninit();
 
-impl TickCtx {
-    /// One control tick: sense -> kernel (one request) -> act -> telemetry
-    /// -> watchdog -> overrun check. No allocation, no blocking (the only
-    /// wait is the bounded 1.5 us DIR settle inside `StepOutputs::apply`),
-    /// no formatting.
-    #[inline(always)]
-    fn run(&mut self) {
-        let t0 = self.cycles.now();
-        let _ = self.tick.on_interrupt();
-        // 1. sense
-        let snaps = self.capture.sample(&self.cycles);
-        let mut enc = [EncoderReading::Lost(LossReason::Acquiring); AXES];
-        for (((e, s), d), t) in
-            enc.iter_mut().zip(snaps.iter()).zip(self.decoders.iter_mut()).zip(self.trackers.iter_mut())
-        {
-            *e = t.update(d.update(*s));
-        }
-        let limits = self.limits.sample(&self.gpios);
-        let sense = firmware::sense(&enc, &limits, self.pending_fault.take());
-        // 2. one request; ENABLE becomes a capability only here (a HOME
-        // that arrives during Boot is queued by the kernel itself)
-        let cmd = self.link.recv();
-        let authority = &self.authority;
-        let request = cmd.map(|c| c.into_request(authority));
-        // 3. kernel
-        let out = self.kernel.tick(&sense, request);
-        // 4. act (all six or none)
-        let (cmds, refused) = firmware::act(&out.act.step_rate, &StepConfig::DEFAULT);
-        self.steps.apply(&self.gpios, &self.cycles, &cmds);
-        if let Some(axis) = refused {
-            self.pending_fault = Some(HardwareFault::Driver { axis });
-        }
-        // 5. telemetry (never blocks; losses are counted by the link)
-        for e in out.events.iter() {
-            self.link.send(Telemetry::Event(*e));
-        }
-        if out.events.dropped() > 0 {
-            self.link.send(Telemetry::EventsLost(out.events.dropped()));
-        }
-        if self.divider.tick() {
-            self.link.send(Telemetry::Status { status: out.status, tick_us: self.last_us });
-        }
-        // Policy (as the simulator's root): a latched tracker re-acquires
-        // while the kernel holds a fault; ENABLE then re-initialises the axis.
-        if out.status.state == State::Fault {
-            for t in self.trackers.iter_mut() {
-                let mut probe = *t;
-                if probe.update(EncoderReading::Lost(LossReason::NoSignal))
-                    == EncoderReading::Lost(LossReason::Unrecoverable)
-                {
-                    t.reset();
-                }
-            }
-        }
-        self.wdog.feed();
-        if self.tick.end_of_handler() {
-            self.pending_fault = Some(HardwareFault::TickOverrun);
-        }
-        self.last_us = firmware::cycles_to_us(self.cycles.now().wrapping_sub(t0));
-    }
-}
-
 #[bsp::rt::interrupt]
 fn PIT() {
     // SAFETY: `TICK_CTX` is written by `main` before the PIT interrupt is
     // unmasked and never touched by `main` again; this handler is the only
     // user afterwards and cannot re-enter itself (same priority).
     let ctx = unsafe { (*addr_of_mut!(TICK_CTX)).assume_init_mut() };
-    ctx.run();
+    let _ = ctx.board.tick.on_interrupt();
+    let _ = ctx.controller.tick(&mut ctx.board);
 }
 
 fn led_on(io: &ral::iomuxc::RegisterBlock, gpio2: &ral::gpio::RegisterBlock) {
@@ -232,51 +198,21 @@ fn main() -> ! {
         led_on(&inst.IOMUXC, &unsafe_gpio2());
     }
 
-    // --- encoder self-test: run the capture for SELF_TEST_MS; the warmed-up
-    // decoders and trackers go to the tick, so the first kernel readings
-    // initialise the observers at the real angles (nothing moves).
-    let mut decoders = [FrameDecoder::new(); AXES];
-    let mut trackers = [Tracker::new(TrackerConfig::DEFAULT); AXES];
-    let mut last = [EncoderReading::Lost(LossReason::Acquiring); AXES];
-    let mut t = cycles.now();
-    for _ in 0..SELF_TEST_MS {
-        cycles.wait_since(t, 600_000);
-        t = t.wrapping_add(600_000);
-        let snaps = capture.sample(&cycles);
-        for (((l, s), d), tr) in last.iter_mut().zip(snaps.iter()).zip(decoders.iter_mut()).zip(trackers.iter_mut()) {
-            *l = tr.update(d.update(*s));
-        }
-        wdog.feed();
-    }
-    let enc_fail = firmware::encoder_self_test(&last);
-    let boot_fault = firmware::boot_fault(marker, watchdog_reset, enc_fail);
-
-    // --- protocol side
+    // --- the root: both halves on the one link.
     // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
-    // two ends go to the main loop and the tick respectively.
-    let link: &'static mut Link<f32, CMD_SLOTS, TEL_SLOTS> = unsafe { &mut *addr_of_mut!(LINK) };
-    let (mut host, tick_end) = link.split();
-    let (kernel, authority) = KernelF32::new(&PAROL6);
+    // two ends go to the tick (controller) and the main loop (host).
+    let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
+    let (mut controller, mut host) = root::new(&PAROL6, link, HOST);
 
-    // --- the tick context, then the tick, then unmask.
+    // --- boot self-test: the encoders and limit inputs are sampled for
+    // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
+    // readings initialise the observers at the real angles (nothing moves).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
-    let ctx = TickCtx {
-        kernel,
-        authority,
-        tick,
-        cycles,
-        capture,
-        decoders,
-        trackers,
-        gpios,
-        limits,
-        steps,
-        wdog,
-        link: tick_end,
-        divider: FeedbackDivider::default_for(PAROL6.tick_hz),
-        pending_fault: boot_fault,
-        last_us: 0,
-    };
+    let mut board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog };
+    let boot = controller.boot(&mut board, marker, watchdog_reset);
+
+    // --- the tick context, then unmask.
+    let ctx = TickCtx { controller, board };
     // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
     // can observe `TICK_CTX` while it is written.
     unsafe { (*addr_of_mut!(TICK_CTX)).write(ctx) };
@@ -291,82 +227,30 @@ fn main() -> ! {
     let usb = port::Usb::new(inst.USB1, inst.USBPHY1, inst.USBNC1);
     let uart = port::Uart::new(serial1);
     #[cfg(not(feature = "serial1"))]
-    let (mut proto, mut log) = (usb, uart);
+    let (mut proto, mut log) = (usb, port::LogPort::new(uart));
     #[cfg(feature = "serial1")]
-    let (mut proto, mut log) = (uart, usb);
+    let (mut proto, mut log) = (uart, port::LogPort::new(usb));
 
-    let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
-    let mut line = Line::new();
     let mut clock = MsClock::new(cycles_now());
-    let mut was_open = false;
     defmt::info!(
         "PAROL6 fw {=str} config {=u64:x} boot_fault {=?} enc_fail {=u8:b}",
         firmware::VERSION,
         config_fingerprint(&PAROL6),
-        defmt::Debug2Format(&boot_fault),
-        enc_fail
+        defmt::Debug2Format(&boot.fault),
+        boot.encoder_fail
     );
     let mut drain = [0u8; 64];
     loop {
         let now_ms = clock.now_ms(cycles_now());
-        proto.poll();
-        log.poll();
-        // Boot banner whenever the host (re)opens the protocol port.
-        let open = proto.is_open();
-        if open && !was_open {
-            line.clear();
-            if banner_line(&mut line, firmware::VERSION, config_fingerprint(&PAROL6), rx.parser().lock(), FEEDBACK)
-                .is_ok()
-            {
-                proto.write_line(line.as_bytes());
-            }
-        }
-        was_open = open;
-        // bytes -> lines -> commands -> queue
-        while let Some(b) = proto.read() {
-            let Some(r) = rx.push(b, now_ms) else { continue };
-            if let Ok(true) = r.report(&mut line) {
-                proto.write_line(line.as_bytes());
-            }
-            if let Received::Accepted { command, .. } = r {
-                if let Err(q) = host.send(command) {
-                    if queue_full_line(&mut line, &q).is_ok() {
-                        proto.write_line(line.as_bytes());
-                    }
-                }
-            }
-        }
-        // telemetry -> lines
-        drain_telemetry(&mut host, &rx, &mut line, &mut proto);
+        // the protocol: bytes -> commands, telemetry -> lines -> port
+        host.poll(&mut proto, now_ms);
         // defmt frames -> the log port (never the protocol port)
+        log.poll();
         let n = logger::drain(&mut drain);
         if n > 0 {
             log.write_raw(drain.get(..n).unwrap_or(&[]));
         }
-        proto.flush();
         log.flush();
-    }
-}
-
-fn drain_telemetry<P: Port>(
-    host: &mut HostEnd<'static, f32, CMD_SLOTS, TEL_SLOTS>,
-    rx: &Receiver<f32>,
-    line: &mut Line,
-    out: &mut P,
-) {
-    while let Some(t) = host.recv() {
-        let ok = match t {
-            Telemetry::Status { status, tick_us } => match FEEDBACK {
-                FeedbackMode::Driver => driver_line(line, rx.last_seq(), &status),
-                _ => configurator_line(line, rx.last_seq(), &status, tick_us),
-            },
-            Telemetry::Event(e) => event_line(line, &e),
-            Telemetry::EventsLost(n) => events_lost_line(line, u32::from(n)),
-            Telemetry::Lost(n) => telemetry_lost_line(line, n),
-        };
-        if ok.is_ok() {
-            out.write_line(line.as_bytes());
-        }
     }
 }
 

@@ -1,8 +1,9 @@
 //! The two byte ports: USB CDC (imxrt-usbd + usbd-serial, polled from the
-//! main loop, no USB interrupt) and Serial1 (the thin HAL's LPUART6). One
-//! carries the protocol, the other the defmt log (selected by the `serial1`
-//! feature in `mod.rs`). Each has a fixed transmit ring: a line that does not
-//! fit is dropped whole and counted, the main loop never blocks.
+//! main loop, no USB interrupt) and Serial1 (the thin HAL's LPUART6), as
+//! [`Port`]s of the shared composition root: they only move bytes; the
+//! transmit ring, its policy and the loss reports are `firmware::tx`. The
+//! port that does not carry the protocol carries the defmt log through a
+//! [`LogPort`] (selected by the `serial1` feature in `mod.rs`).
 
 use heapless::Deque;
 use teensy4_bsp::ral;
@@ -12,42 +13,16 @@ use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDevi
 use usb_device::LangID;
 use usbd_serial::SerialPort;
 
+use firmware::board::Port;
 use hal_imxrt::periph::uart::Serial1;
 
-const TX_CAP: usize = 2048;
-
-/// A byte port.
-pub trait Port {
-    /// Service the hardware (USB enumeration / transfers).
-    fn poll(&mut self);
-    /// A host is listening (USB: configured and DTR set; UART: always).
-    fn is_open(&self) -> bool;
-    /// One received byte.
-    fn read(&mut self) -> Option<u8>;
-    /// Queue a whole line, or drop it whole (counted) if it does not fit.
-    fn write_line(&mut self, line: &[u8]);
-    /// Queue raw bytes as far as they fit (log frames; the decoder resyncs).
-    fn write_raw(&mut self, bytes: &[u8]);
-    /// Move queued bytes to the hardware as far as it accepts them.
-    fn flush(&mut self);
-}
-
-fn enqueue_line(q: &mut Deque<u8, TX_CAP>, dropped: &mut u32, line: &[u8]) {
-    if q.capacity() - q.len() < line.len() {
-        *dropped = dropped.wrapping_add(1);
-        return;
-    }
-    for &b in line {
-        let _ = q.push_back(b);
-    }
-}
+/// Bytes of the log ring (defmt frames; the decoder resynchronises after a loss).
+const LOG_CAP: usize = 1024;
 
 /// USB CDC-ACM (full speed, 64-byte packets).
 pub struct Usb {
     dev: UsbDevice<'static, BusAdapter>,
     serial: SerialPort<'static, BusAdapter>,
-    tx: Deque<u8, TX_CAP>,
-    dropped: u32,
 }
 
 static EP_MEMORY: EndpointMemory<2048> = EndpointMemory::new();
@@ -76,16 +51,13 @@ impl Usb {
             Err(_) => super::halt(),
         };
         let dev = builder.build();
-        Self { dev, serial, tx: Deque::new(), dropped: 0 }
+        Self { dev, serial }
     }
 }
 
 impl Port for Usb {
     fn poll(&mut self) {
         self.dev.poll(&mut [&mut self.serial]);
-        if self.dev.state() != UsbDeviceState::Configured {
-            self.tx.clear();
-        }
     }
     fn is_open(&self) -> bool {
         self.dev.state() == UsbDeviceState::Configured && self.serial.dtr()
@@ -97,57 +69,36 @@ impl Port for Usb {
             _ => None,
         }
     }
-    fn write_line(&mut self, line: &[u8]) {
-        if self.is_open() {
-            enqueue_line(&mut self.tx, &mut self.dropped, line);
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        if !self.is_open() {
+            return 0;
         }
-    }
-    fn write_raw(&mut self, bytes: &[u8]) {
-        if self.is_open() {
-            for &b in bytes {
-                if self.tx.push_back(b).is_err() {
-                    break;
-                }
-            }
-        }
-    }
-    fn flush(&mut self) {
-        while !self.tx.is_empty() {
-            let (a, _) = self.tx.as_slices();
-            let n = match self.serial.write(a) {
-                Ok(n) if n > 0 => n,
-                _ => break,
-            };
-            for _ in 0..n {
-                let _ = self.tx.pop_front();
-            }
-        }
+        // WouldBlock (endpoint busy) and errors: nothing taken this pass.
+        let n = self.serial.write(bytes).unwrap_or_default();
         let _ = self.serial.flush();
+        n
     }
 }
 
 /// Serial1 (LPUART6, pins 0/1), polled.
 pub struct Uart {
     hw: Serial1,
-    tx: Deque<u8, TX_CAP>,
-    dropped: u32,
 }
 
 impl Uart {
     /// Wrap the configured port.
     pub fn new(hw: Serial1) -> Self {
-        Self { hw, tx: Deque::new(), dropped: 0 }
+        Self { hw }
     }
 }
 
 impl Port for Uart {
-    fn poll(&mut self) {}
     fn is_open(&self) -> bool {
         true
     }
     fn read(&mut self) -> Option<u8> {
         // Line errors and overruns drop the byte; the framer rejects the
-        // damaged line.
+        // damaged line (counted and reported).
         loop {
             match self.hw.try_read()? {
                 Ok(b) => return Some(b),
@@ -155,22 +106,57 @@ impl Port for Uart {
             }
         }
     }
-    fn write_line(&mut self, line: &[u8]) {
-        enqueue_line(&mut self.tx, &mut self.dropped, line);
-    }
-    fn write_raw(&mut self, bytes: &[u8]) {
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        let mut n = 0;
         for &b in bytes {
-            if self.tx.push_back(b).is_err() {
+            if !self.hw.try_write(b) {
+                break;
+            }
+            n += 1;
+        }
+        n
+    }
+}
+
+/// The log port: a raw byte ring in front of a [`Port`] (defmt frames are
+/// not lines; a frame that does not fit is cut, and the host decoder
+/// resynchronises).
+pub struct LogPort<P> {
+    port: P,
+    ring: Deque<u8, LOG_CAP>,
+}
+
+impl<P: Port> LogPort<P> {
+    /// Wrap `port`.
+    pub fn new(port: P) -> Self {
+        Self { port, ring: Deque::new() }
+    }
+    /// Service the hardware.
+    pub fn poll(&mut self) {
+        self.port.poll();
+    }
+    /// Queue raw bytes as far as they fit.
+    pub fn write_raw(&mut self, bytes: &[u8]) {
+        if !self.port.is_open() {
+            return;
+        }
+        for &b in bytes {
+            if self.ring.push_back(b).is_err() {
                 break;
             }
         }
     }
-    fn flush(&mut self) {
-        while let Some(&b) = self.tx.front() {
-            if !self.hw.try_write(b) {
+    /// Move queued bytes to the hardware as far as it takes them.
+    pub fn flush(&mut self) {
+        while !self.ring.is_empty() {
+            let (a, _) = self.ring.as_slices();
+            let n = self.port.write(a);
+            if n == 0 {
                 break;
             }
-            let _ = self.tx.pop_front();
+            for _ in 0..n {
+                let _ = self.ring.pop_front();
+            }
         }
     }
 }

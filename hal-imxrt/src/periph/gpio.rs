@@ -1,6 +1,5 @@
 //! GPIO1..4 (standard GPIO) for DIR outputs and limit-switch inputs.
 
-use crate::pure::debounce::{Debounce, LimitState};
 use crate::pure::pins::{teensy41_pin, GpioBit, PinMap, PinMapError};
 use imxrt_ral as ral;
 use ral::gpio;
@@ -70,11 +69,11 @@ impl Gpios {
     }
 }
 
-/// Six debounced limit switches (pull-up, active low), sampled once per tick.
+/// Six limit-switch inputs (pull-up, active low), read once per tick; the
+/// composition root debounces them (`hal_imxrt::pure::debounce`).
 #[derive(Debug)]
 pub struct Limits {
     pins: [GpioBit; 6],
-    debounce: [Debounce; 6],
 }
 
 impl Limits {
@@ -89,14 +88,16 @@ impl Limits {
             gpios.make_input(tp.gpio);
             *slot = tp.gpio;
         }
-        Ok(Self { pins, debounce: [Debounce::new(); 6] })
+        Ok(Self { pins })
     }
 
-    /// Sample all six inputs and return the debounced states (J1..J6).
-    pub fn sample(&mut self, gpios: &Gpios) -> [LimitState; 6] {
-        let mut out = [LimitState::Unknown; 6];
-        for ((o, d), b) in out.iter_mut().zip(self.debounce.iter_mut()).zip(self.pins) {
-            *o = d.sample(gpios.read(b));
+    /// The six raw input levels, bit `i` = J(i+1) pin high (switch open).
+    pub fn levels(&self, gpios: &Gpios) -> u8 {
+        let mut out = 0u8;
+        for (i, b) in self.pins.iter().enumerate() {
+            if gpios.read(*b) {
+                out |= 1u8 << (i & 7);
+            }
         }
         out
     }

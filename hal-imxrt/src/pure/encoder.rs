@@ -319,6 +319,12 @@ impl Tracker {
         self.state = TrackState::Acquiring { last: None, agree: 0 };
     }
 
+    /// True once the tracker has latched `Unrecoverable` (it answers every
+    /// reading with that until [`Tracker::reset`]).
+    pub const fn is_latched(&self) -> bool {
+        matches!(self.state, TrackState::Latched)
+    }
+
     /// Last accepted count, if tracking.
     pub const fn last_count(&self) -> Option<u16> {
         match self.state {

@@ -1,6 +1,7 @@
 //! Everything that can be computed without touching a register. No
 //! dependencies, no floats, no panics outside `const` evaluation and tests.
 
+pub mod channel;
 pub mod clock;
 pub mod debounce;
 pub mod encoder;

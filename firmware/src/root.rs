@@ -1,0 +1,434 @@
+//! The composition root, shared by the Teensy image and the simulator.
+//!
+//! ```text
+//!  host bytes --Port--> Host::receive: Receiver (framer, parser, sequence
+//!                        filter) -> command queue ----------------------+
+//!                                                                       |
+//!  TickBoard --capture/limits--> Controller::tick: EncoderChannel x6,   |
+//!     ^                          Debounce x6 -> Sense; one command <----+
+//!     |                          (ENABLE -> capability, only here) ->
+//!     +----apply(step cmds)----- Kernel::tick -> act (all or none);
+//!                                events + status -> telemetry queue --+
+//!                                                                     |
+//!  host <--Port-- Tx ring (classes, counted drops) <-- Host::transmit <-+
+//!                 (line formatting, feedback schedule)
+//! ```
+//!
+//! [`Controller`] is the 1 kHz tick's half (the image runs it in the PIT
+//! interrupt); [`Host`] is the main loop's half. They meet only in the
+//! [`RootLink`] (two lock-free single-producer single-consumer queues), so
+//! the interrupt never waits for the main loop. [`new`] builds both halves
+//! from one link, for the image (a `static` link) and for the simulator
+//! alike; the board-specific code is only the [`TickBoard`] and [`Port`]
+//! implementations.
+//!
+//! The kernel's [`Authority`] lives in the [`Controller`] and nowhere else:
+//! a host `<ENABLE>` becomes an [`kernel::EnableCapability`] only here.
+
+use hal_imxrt::pure::channel::EncoderChannel;
+use hal_imxrt::pure::debounce::{Debounce, LimitState};
+use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
+use hal_imxrt::pure::step::{StepCommand, StepConfig};
+use kernel::config::{ArmConfig, AXES};
+use kernel::homing::Phase;
+use kernel::{Authority, Event, HardwareFault, KernelF32, RequestKind, State, TickOutput};
+use protocol::feedback::{FeedbackDivider, FeedbackMode};
+use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
+use protocol::receiver::{Counters, Received, Receiver};
+use protocol::report::{banner_line, config_fingerprint, is_critical, queue_full_line, telemetry_lines};
+use protocol::{Command, Line, ProtocolConfig};
+
+use crate::board::{Port, TickBoard};
+use crate::tx::{Class, Tx, TxCounters};
+use crate::{CMD_SLOTS, TEL_SLOTS};
+
+/// The queues between the two halves.
+pub type RootLink = Link<f32, CMD_SLOTS, TEL_SLOTS>;
+
+/// Boot self-test length (ms): enough for the frame decoder and the
+/// tracker to acquire (about 5 frames) with margin.
+pub const SELF_TEST_MS: u32 = 30;
+
+/// Input bytes handled per [`Host::receive`] call (bounds the main loop's
+/// work per pass; the rest waits in the port).
+pub const INPUT_BUDGET: usize = 256;
+
+/// Room a response to one input line needs in the transmit ring; input is
+/// read only while a report line of this size would be admitted, so a
+/// flood of commands is slowed down (the port holds the bytes) instead of
+/// its answers being dropped.
+pub const RESPONSE_ROOM: usize = 128;
+
+/// Settings of the main loop's half.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HostConfig {
+    /// Version string for the banner.
+    pub version: &'static str,
+    /// Which feedback lines to send.
+    pub feedback: FeedbackMode,
+    /// In [`FeedbackMode::Both`], the configurator's line goes out every
+    /// `configurator_every`-th feedback period (the driver's every period).
+    pub configurator_every: u32,
+    /// Receiver settings.
+    pub protocol: ProtocolConfig,
+}
+
+impl HostConfig {
+    /// USB CDC (the default transport): both clients, every period (50 Hz).
+    pub const USB: HostConfig = HostConfig {
+        version: crate::VERSION,
+        feedback: FeedbackMode::Both,
+        configurator_every: 1,
+        protocol: ProtocolConfig::DEFAULT,
+    };
+    /// Serial1 at 115200 baud (11,520 B/s): the driver's line at 50 Hz
+    /// (at most 104 B: 5.2 kB/s) and the configurator's at 10 Hz (at most
+    /// 125 B: 1.25 kB/s), 56 % of the link, leaving the rest for events and
+    /// reports. Both at 50 Hz would need 11.45 kB/s (99 %).
+    pub const SERIAL1: HostConfig = HostConfig {
+        version: crate::VERSION,
+        feedback: FeedbackMode::Both,
+        configurator_every: 5,
+        protocol: ProtocolConfig::DEFAULT,
+    };
+}
+
+/// Builds both halves of the root on `link`: the tick's [`Controller`]
+/// (with the kernel and its only [`Authority`]) and the main loop's
+/// [`Host`].
+pub fn new<'a>(cfg: &ArmConfig, link: &'a mut RootLink, host: HostConfig) -> (Controller<'a>, Host<'a>) {
+    let (host_end, tick_end) = link.split();
+    let (kernel, authority) = KernelF32::new(cfg);
+    let controller = Controller {
+        kernel,
+        authority,
+        channels: [EncoderChannel::new(); AXES],
+        debounce: [Debounce::new(); AXES],
+        link: tick_end,
+        divider: FeedbackDivider::default_for(cfg.tick_hz),
+        step_cfg: StepConfig::DEFAULT,
+        pending_fault: None,
+        last_us: 0,
+        ack: 0,
+    };
+    let host = Host {
+        rx: Receiver::new(cfg, host.protocol),
+        link: host_end,
+        line: Line::new(),
+        tx: Tx::new(),
+        cfg: host,
+        fingerprint: config_fingerprint(cfg),
+        periods: 0,
+        was_open: false,
+    };
+    (controller, host)
+}
+
+/// What one tick did (the image ignores it; the simulator records it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickRecord {
+    /// The kernel's output.
+    pub out: TickOutput<f32>,
+    /// The request handed to the kernel, if any.
+    pub request: Option<RequestKind>,
+    /// The motion target of that request, if it was one.
+    pub target: Option<[f32; AXES]>,
+    /// The encoder readings after decode and tracking.
+    pub readings: [EncoderReading; AXES],
+    /// The step commands applied.
+    pub cmds: [StepCommand; AXES],
+}
+
+/// The outcome of the boot self-test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BootReport {
+    /// The last reading of every encoder.
+    pub readings: [EncoderReading; AXES],
+    /// Axes whose encoder gave no count (bit per axis).
+    pub encoder_fail: u8,
+    /// The fault handed to the kernel with the first sense, if any.
+    pub fault: Option<HardwareFault>,
+}
+
+/// The tick's half: kernel, encoder channels, debounce, actuation mapping.
+pub struct Controller<'a> {
+    kernel: KernelF32,
+    authority: Authority,
+    channels: [EncoderChannel; AXES],
+    debounce: [Debounce; AXES],
+    link: TickEnd<'a, f32, CMD_SLOTS, TEL_SLOTS>,
+    divider: FeedbackDivider,
+    step_cfg: StepConfig,
+    pending_fault: Option<HardwareFault>,
+    last_us: u32,
+    ack: u32,
+}
+
+impl core::fmt::Debug for Controller<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Controller")
+            .field("state", &self.kernel.state())
+            .field("pending_fault", &self.pending_fault)
+            .field("ack", &self.ack)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Controller<'_> {
+    /// Boot self-test (interrupts masked, before the first tick): samples
+    /// the encoders and limit inputs for [`SELF_TEST_MS`] ms, so the
+    /// decoders, trackers and debouncers are warm when the kernel first
+    /// reads them, then sets the fault the first tick hands to the kernel
+    /// (a previous panic beats a watchdog reset beats an encoder failure).
+    pub fn boot<B: TickBoard + ?Sized>(&mut self, board: &mut B, panic_marker: u32, watchdog_reset: bool) -> BootReport {
+        let mut last = [EncoderReading::Lost(LossReason::Acquiring); AXES];
+        for _ in 0..SELF_TEST_MS {
+            board.boot_wait_ms();
+            let snaps = board.capture();
+            for ((l, s), ch) in last.iter_mut().zip(snaps).zip(self.channels.iter_mut()) {
+                *l = ch.update(s);
+            }
+            let _ = self.sample_limits(board);
+        }
+        let encoder_fail = crate::encoder_self_test(&last);
+        let fault = crate::boot_fault(panic_marker, watchdog_reset, encoder_fail);
+        self.pending_fault = fault;
+        BootReport { readings: last, encoder_fail, fault }
+    }
+
+    fn sample_limits<B: TickBoard + ?Sized>(&mut self, board: &mut B) -> [LimitState; AXES] {
+        let levels = board.limit_levels();
+        let mut out = [LimitState::Unknown; AXES];
+        for (i, (o, d)) in out.iter_mut().zip(self.debounce.iter_mut()).enumerate() {
+            *o = d.sample(levels & (1u8 << (i & 7)) != 0);
+        }
+        out
+    }
+
+    /// One control tick: sense -> one request -> kernel -> act (all six or
+    /// none) -> telemetry -> reset policy -> watchdog -> overrun check. No
+    /// allocation, no blocking, no formatting.
+    #[inline(always)]
+    pub fn tick<B: TickBoard + ?Sized>(&mut self, board: &mut B) -> TickRecord {
+        let t0 = board.cycles();
+        // 1. sense
+        let snaps = board.capture();
+        let mut readings = [EncoderReading::Lost(LossReason::Acquiring); AXES];
+        for ((r, s), ch) in readings.iter_mut().zip(snaps).zip(self.channels.iter_mut()) {
+            *r = ch.update(s);
+        }
+        let limits = self.sample_limits(board);
+        let sense = crate::sense(&readings, &limits, self.pending_fault.take());
+        // 2. one request; ENABLE becomes a capability only here
+        let cmd = self.link.recv();
+        let (target, seq) = match &cmd {
+            Some(Command::Motion { seq, target, .. }) => (Some(target.position), Some(*seq)),
+            _ => (None, None),
+        };
+        let authority = &self.authority;
+        let request = cmd.map(|c| c.into_request(authority));
+        let kind = request.as_ref().map(|r| r.kind());
+        // 3. kernel
+        let out = self.kernel.tick(&sense, request);
+        // 4. act (all six or none)
+        let (cmds, refused) = crate::act(&out.act.step_rate, &self.step_cfg);
+        board.apply(&cmds);
+        if let Some(axis) = refused {
+            self.pending_fault = Some(HardwareFault::Driver { axis });
+        }
+        // 5. telemetry (never blocks; losses are counted by the link)
+        if let Some(seq) = seq {
+            let refused = out.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
+            if !refused {
+                self.ack = seq;
+            }
+        }
+        for e in out.events.iter() {
+            self.link.send(Telemetry::Event(*e));
+        }
+        if out.events.dropped() > 0 {
+            self.link.send(Telemetry::EventsLost(out.events.dropped()));
+        }
+        if self.divider.tick() {
+            self.link.send(Telemetry::Status { status: out.status, tick_us: self.last_us, ack: self.ack });
+        }
+        // 6. reset policy: a latched tracker re-acquires while the kernel
+        // holds a fault; ENABLE then re-initialises the axis (re-homing).
+        if out.status.state == State::Fault {
+            for ch in self.channels.iter_mut() {
+                let _ = ch.on_fault_held();
+            }
+        }
+        board.feed_watchdog();
+        if board.end_of_tick() {
+            self.pending_fault = Some(HardwareFault::TickOverrun);
+        }
+        self.last_us = crate::cycles_to_us(board.cycles().wrapping_sub(t0));
+        TickRecord { out, request: kind, target, readings, cmds }
+    }
+
+    /// The kernel (read-only).
+    pub fn kernel(&self) -> &KernelF32 {
+        &self.kernel
+    }
+
+    /// Homing phase of every axis.
+    pub fn homing_phases(&self) -> [Phase; AXES] {
+        self.kernel.homing_phases()
+    }
+
+    /// SEQ the next feedback line acknowledges.
+    pub fn ack(&self) -> u32 {
+        self.ack
+    }
+
+    /// The encoder channels (diagnostics).
+    pub fn channels(&self) -> &[EncoderChannel; AXES] {
+        &self.channels
+    }
+
+    /// Telemetry elements the tick dropped and has not yet reported.
+    pub fn telemetry_unreported(&self) -> u32 {
+        self.link.lost()
+    }
+}
+
+/// The main loop's half: receiver, command queue, telemetry to lines,
+/// transmit ring.
+pub struct Host<'a> {
+    rx: Receiver<f32>,
+    link: HostEnd<'a, f32, CMD_SLOTS, TEL_SLOTS>,
+    line: Line,
+    tx: Tx,
+    cfg: HostConfig,
+    fingerprint: u64,
+    periods: u32,
+    was_open: bool,
+}
+
+impl core::fmt::Debug for Host<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Host").field("cfg", &self.cfg).field("tx", &self.tx.counters()).finish_non_exhaustive()
+    }
+}
+
+impl Host<'_> {
+    /// The boot banner line.
+    pub fn banner(&mut self) -> &Line {
+        let ok = banner_line(
+            &mut self.line,
+            self.cfg.version,
+            self.fingerprint,
+            self.rx.parser().lock(),
+            self.cfg.feedback,
+        );
+        if ok.is_err() {
+            self.line.clear();
+        }
+        &self.line
+    }
+
+    /// One pass of the main loop: [`Host::receive`] then [`Host::transmit`].
+    pub fn poll<P: Port + ?Sized>(&mut self, port: &mut P, now_ms: u32) {
+        self.receive(port, now_ms);
+        self.transmit(port);
+    }
+
+    /// Services the port, sends the banner when a host opens it, and turns
+    /// up to [`INPUT_BUDGET`] received bytes into queued commands and report
+    /// lines (`now_ms`: a free-running millisecond clock).
+    pub fn receive<P: Port + ?Sized>(&mut self, port: &mut P, now_ms: u32) {
+        port.poll();
+        let open = port.is_open();
+        if open != self.was_open {
+            if open {
+                let _ = self.banner();
+                self.tx.on_open(&self.line);
+            } else {
+                self.tx.on_close();
+            }
+            self.was_open = open;
+        }
+        for _ in 0..INPUT_BUDGET {
+            if !self.tx.would_admit(RESPONSE_ROOM, Class::Report) {
+                break;
+            }
+            let Some(b) = port.read() else { break };
+            let Some(r) = self.rx.push(b, now_ms) else { continue };
+            match r.report(&mut self.line) {
+                Ok(true) => {
+                    self.tx.push(&self.line, Class::Report, open);
+                }
+                Ok(false) => {}
+                Err(_) => self.overflow(open),
+            }
+            if let Received::Accepted { command, .. } = r {
+                if let Err(q) = self.link.send(command) {
+                    match queue_full_line(&mut self.line, &q) {
+                        Ok(()) => {
+                            self.tx.push(&self.line, Class::Report, open);
+                        }
+                        Err(_) => self.overflow(open),
+                    }
+                }
+            }
+        }
+    }
+
+    fn overflow(&mut self, open: bool) {
+        // A line longer than `LINE_CAP` (never expected: capacities are
+        // sized for the worst case and tested) is reported, not truncated.
+        self.line.clear();
+        let _ = self.line.push_str("LINE_OVERFLOW\n");
+        self.tx.push(&self.line, Class::Report, open);
+    }
+
+    /// Turns every queued telemetry element into lines in the transmit
+    /// ring, then moves what the port takes.
+    pub fn transmit<P: Port + ?Sized>(&mut self, port: &mut P) {
+        let open = port.is_open();
+        // Bounded by the telemetry queue's capacity (the tick adds at most
+        // a few elements per millisecond).
+        for _ in 0..TEL_SLOTS {
+            let Some(t) = self.link.recv() else { break };
+            let (class, due) = match &t {
+                Telemetry::Status { .. } => {
+                    let every = self.cfg.configurator_every.max(1);
+                    let due = self.periods.is_multiple_of(every);
+                    self.periods = self.periods.wrapping_add(1);
+                    (Class::Feedback, due)
+                }
+                Telemetry::Event(e) if is_critical(e) => (Class::Critical, true),
+                _ => (Class::Report, true),
+            };
+            let tx = &mut self.tx;
+            let r = telemetry_lines(&t, self.cfg.feedback, due, &mut self.line, |l| {
+                tx.push(l, class, open);
+            });
+            if r.is_err() {
+                self.overflow(open);
+            }
+        }
+        self.tx.flush(port);
+    }
+
+    /// Receiver counters.
+    pub fn counters(&self) -> Counters {
+        self.rx.counters()
+    }
+
+    /// Transmit counters.
+    pub fn tx_counters(&self) -> TxCounters {
+        self.tx.counters()
+    }
+
+    /// Commands refused by the full command queue.
+    pub fn queue_refused(&self) -> u32 {
+        self.link.refused()
+    }
+
+    /// The settings.
+    pub fn config(&self) -> HostConfig {
+        self.cfg
+    }
+}
