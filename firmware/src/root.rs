@@ -180,7 +180,12 @@ impl Controller<'_> {
     /// decoders, trackers and debouncers are warm when the kernel first
     /// reads them, then sets the fault the first tick hands to the kernel
     /// (a previous panic beats a watchdog reset beats an encoder failure).
-    pub fn boot<B: TickBoard + ?Sized>(&mut self, board: &mut B, panic_marker: u32, watchdog_reset: bool) -> BootReport {
+    pub fn boot<B: TickBoard + ?Sized>(
+        &mut self,
+        board: &mut B,
+        panic_marker: u32,
+        watchdog_reset: bool,
+    ) -> BootReport {
         let mut last = [EncoderReading::Lost(LossReason::Acquiring); AXES];
         for _ in 0..SELF_TEST_MS {
             board.boot_wait_ms();
@@ -315,13 +320,8 @@ impl core::fmt::Debug for Host<'_> {
 impl Host<'_> {
     /// The boot banner line.
     pub fn banner(&mut self) -> &Line {
-        let ok = banner_line(
-            &mut self.line,
-            self.cfg.version,
-            self.fingerprint,
-            self.rx.parser().lock(),
-            self.cfg.feedback,
-        );
+        let ok =
+            banner_line(&mut self.line, self.cfg.version, self.fingerprint, self.rx.parser().lock(), self.cfg.feedback);
         if ok.is_err() {
             self.line.clear();
         }

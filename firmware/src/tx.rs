@@ -98,13 +98,7 @@ impl Tx {
             pending: Vec::new(),
             unreported: 0,
             unreported_closed: 0,
-            counters: TxCounters {
-                queued: 0,
-                dropped: 0,
-                dropped_closed: 0,
-                critical_dropped: 0,
-                reports: 0,
-            },
+            counters: TxCounters { queued: 0, dropped: 0, dropped_closed: 0, critical_dropped: 0, reports: 0 },
             scratch: Line::new(),
         }
     }

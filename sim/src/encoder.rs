@@ -1,30 +1,22 @@
-//! MT6816 PWM output, the QuadTimer's gated count, and the HAL's decode.
+//! MT6816 PWM output and the QuadTimer channel that captures it.
 //!
 //! Each encoder emits real frames: 4119 PWM clocks of 250 ns (150 CPU cycles
 //! at 600 MHz), HIGH for `16 + count` clocks, LOW to the end. The count of a
-//! frame is the motor angle at the frame's start. The QuadTimer counts its
-//! 18.75 MHz ticks (one every 32 CPU cycles, 53.3 ns) while the pin is HIGH;
-//! the count is exact: the number of timer edges that fall inside HIGH time.
+//! frame is the motor angle at the frame's start.
 //!
-//! The sim decodes the way the HAL does, with `hal_imxrt::pure::encoder`:
-//!
-//! * [`DecodeMode::Window`]: what `hal-imxrt` implements today - one sample of
-//!   the 16-bit gated counter and the cycle counter per control tick, a
-//!   one-tick window, [`decode_window`], then the continuity [`Tracker`].
-//! * [`DecodeMode::Frame`]: edge-aligned capture of the last complete frame
-//!   (exact high time and period of one pulse, quantised to 53.3 ns), decoded
-//!   by the same [`decode_window`]. `hal-imxrt`'s docs name this as the way to
-//!   remove the 1 ms window's phase error; it is not in the HAL yet.
-//!
-//! The tracker's output becomes a [`kernel::EncoderSample`].
+//! The channel is modelled as the i.MXRT1062 QuadTimer the firmware programs
+//! (gated count of the IPG/8 clock, one tick every 32 CPU cycles, while the
+//! pin is high; capture of the counter into `CAPT` on every rising edge,
+//! setting `SCTRL[IEF]`; `SCTRL[INPUT]` following the pin), read once per
+//! control tick into the same [`Snapshot`] the firmware's `FrameCapture`
+//! produces. The snapshot then goes through the composition root's
+//! [`hal_imxrt::pure::channel::EncoderChannel`]: the decoder that is flashed.
+//! The counter is exact: the number of timer edges that fall inside HIGH time.
 
 use std::collections::VecDeque;
 
-use hal_imxrt::pure::encoder::{
-    decode_window, DecodeConfig, EncoderReading, LossReason, RawSample, Tracker, TrackerConfig, WindowSampler,
-    FRAME_CLOCKS, START_CLOCKS,
-};
-use kernel::EncoderSample;
+use hal_imxrt::pure::encoder::{LossReason, FRAME_CLOCKS, START_CLOCKS};
+use hal_imxrt::pure::frame::Snapshot;
 
 use crate::rng::Rng;
 
@@ -34,33 +26,9 @@ pub const CYCLES_PER_PWM_CLOCK: f64 = 150.0;
 pub const CYCLES_PER_QT_TICK: f64 = 32.0;
 /// CPU frequency.
 pub const CPU_HZ: u64 = 600_000_000;
-
-/// How the sim turns the PWM signal into a count.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DecodeMode {
-    /// One-tick gated-count window (`hal-imxrt` as committed).
-    Window,
-    /// Edge-aligned capture of the last complete frame.
-    Frame,
-}
-
-impl DecodeMode {
-    /// Name used on the command line and in scenario files.
-    pub fn name(self) -> &'static str {
-        match self {
-            DecodeMode::Window => "window",
-            DecodeMode::Frame => "frame",
-        }
-    }
-    /// Parses `window` or `frame`.
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "window" => Some(DecodeMode::Window),
-            "frame" => Some(DecodeMode::Frame),
-            _ => None,
-        }
-    }
-}
+/// CPU cycles a snapshot's register reads span (first `SCTRL` read to the
+/// second): an edge inside it makes the snapshot inconsistent, as on the chip.
+pub const SNAPSHOT_CYCLES: f64 = 60.0;
 
 /// What the encoder line does, for fault injection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,7 +45,6 @@ pub enum Line {
 struct Frame {
     start: f64,
     high_end: f64,
-    end: f64,
 }
 
 /// Counts of decode outcomes (for the report).
@@ -103,7 +70,15 @@ impl DecodeStats {
         "unrecoverable",
     ];
 
-    fn add(&mut self, r: LossReason) {
+    /// Counts one reading.
+    pub fn add(&mut self, r: hal_imxrt::pure::encoder::EncoderReading) {
+        let r = match r {
+            hal_imxrt::pure::encoder::EncoderReading::Count(_) => {
+                self.ok += 1;
+                return;
+            }
+            hal_imxrt::pure::encoder::EncoderReading::Lost(r) => r,
+        };
         let i = match r {
             LossReason::NoSignal => 0,
             LossReason::StuckHigh => 1,
@@ -118,74 +93,81 @@ impl DecodeStats {
             *s += 1;
         }
     }
+
     /// Total lost samples.
     pub fn lost_total(&self) -> u64 {
         self.lost.iter().sum()
     }
 }
 
-/// One MT6816 with its QuadTimer channel and the HAL decode.
+/// Timer edges (every 32 CPU cycles) in `(a, b]`.
+fn edges(a: f64, b: f64) -> u64 {
+    if b <= a {
+        0
+    } else {
+        ((b / CYCLES_PER_QT_TICK).ceil() - (a / CYCLES_PER_QT_TICK).ceil()).max(0.0) as u64
+    }
+}
+
+/// One MT6816 and its QuadTimer channel.
 #[derive(Clone, Debug)]
 pub struct Encoder {
-    mode: DecodeMode,
     period: f64,
     next_start: f64,
     frames: VecDeque<Frame>,
+    /// Gated counter (high ticks since power-on) at `last_sample`.
     gated: u64,
+    capt: u16,
+    ief: bool,
     last_sample: f64,
-    sampler: WindowSampler,
-    tracker: Tracker,
     /// Gaussian noise on each frame's count (counts, sigma).
     pub noise: f64,
     /// Line state (fault injection).
     pub line: Line,
     /// Pending glitch: offset added to the next `frames` frames.
     pub glitch: Option<(i32, u32)>,
-    /// Decode statistics.
-    pub stats: DecodeStats,
-    /// The last raw reading before the tracker (for plots/debugging).
-    pub last_raw: Option<u16>,
 }
 
 impl Encoder {
     /// An encoder whose frames start `phase` (0..1 of a frame) after t = 0
     /// and whose clock is off by `clock_ppm`.
-    pub fn new(mode: DecodeMode, phase: f64, clock_ppm: f64, noise: f64) -> Self {
+    pub fn new(phase: f64, clock_ppm: f64, noise: f64) -> Self {
         let period = f64::from(FRAME_CLOCKS) * CYCLES_PER_PWM_CLOCK * (1.0 + clock_ppm * 1e-6);
         Encoder {
-            mode,
             period,
             next_start: phase.rem_euclid(1.0) * period,
             frames: VecDeque::new(),
             gated: 0,
+            capt: 0,
+            ief: false,
             last_sample: 0.0,
-            sampler: WindowSampler::new(),
-            tracker: Tracker::new(TrackerConfig::DEFAULT),
             noise,
             line: Line::Ok,
             glitch: None,
-            stats: DecodeStats::default(),
-            last_raw: None,
         }
     }
 
-    /// True when the continuity tracker has latched `Unrecoverable`.
-    pub fn tracker_latched(&self) -> bool {
-        // Probe a copy: a latched (or about to latch) tracker answers
-        // `Unrecoverable` to anything; the real one is untouched.
-        let mut t = self.tracker;
-        t.update(EncoderReading::Lost(LossReason::NoSignal)) == EncoderReading::Lost(LossReason::Unrecoverable)
+    fn high_ticks(&self, a: f64, b: f64) -> u64 {
+        match self.line {
+            Line::StuckLow => 0,
+            Line::StuckHigh => edges(a, b),
+            Line::Ok => self.frames.iter().map(|f| edges(f.start.max(a), f.high_end.min(b))).sum(),
+        }
     }
 
-    /// Re-acquire from scratch (composition-root policy after a fault).
-    pub fn reset_tracker(&mut self) {
-        self.tracker.reset();
+    fn pin_high(&self, t: f64) -> bool {
+        match self.line {
+            Line::StuckLow => false,
+            Line::StuckHigh => true,
+            Line::Ok => self.frames.iter().any(|f| f.start <= t && t < f.high_end),
+        }
     }
 
-    /// Advances the signal to `t_now` (CPU cycles) and samples it. The motor
-    /// angle, in counts (continuous, unwrapped), is `c_prev` at the previous
-    /// sample and `c_now` at `t_now`, linear in between.
-    pub fn sample(&mut self, t_now: f64, c_prev: f64, c_now: f64, rng: &mut Rng) -> EncoderSample {
+    /// Advances the signal to `t_now` (CPU cycles) and reads the channel as
+    /// the firmware does (then clears `IEF`). The motor angle, in counts
+    /// (continuous, unwrapped), is `c_prev` at the previous read and `c_now`
+    /// at `t_now`, linear in between.
+    pub fn sample(&mut self, t_now: f64, c_prev: f64, c_now: f64, rng: &mut Rng) -> Snapshot {
         let t_prev = self.last_sample;
         let angle_at = |t: f64| -> f64 {
             if t_now > t_prev {
@@ -194,8 +176,9 @@ impl Encoder {
                 c_now
             }
         };
-        // 1. Frames that start before now.
-        while self.next_start < t_now {
+        // 1. Frames that start before the end of this read.
+        let horizon = t_now + SNAPSHOT_CYCLES;
+        while self.next_start < horizon {
             let start = self.next_start;
             let mut c = angle_at(start).floor() as i64;
             if self.noise > 0.0 {
@@ -210,98 +193,75 @@ impl Encoder {
                 + (f64::from(START_CLOCKS) + count)
                     * CYCLES_PER_PWM_CLOCK
                     * (self.period / (f64::from(FRAME_CLOCKS) * CYCLES_PER_PWM_CLOCK));
-            self.frames.push_back(Frame { start, high_end, end: start + self.period });
+            self.frames.push_back(Frame { start, high_end });
             self.next_start += self.period;
         }
         while self.frames.len() > 4 {
             self.frames.pop_front();
         }
-        // 2. Gated count over [t_prev, t_now).
-        let edges = |a: f64, b: f64| -> u64 {
-            if b <= a {
-                0
-            } else {
-                ((b / CYCLES_PER_QT_TICK).ceil() - (a / CYCLES_PER_QT_TICK).ceil()).max(0.0) as u64
-            }
-        };
-        let add = match self.line {
-            Line::StuckLow => 0,
-            Line::StuckHigh => edges(t_prev, t_now),
-            Line::Ok => self.frames.iter().map(|f| edges(f.start.max(t_prev), f.high_end.min(t_now))).sum::<u64>(),
-        };
-        self.gated = self.gated.wrapping_add(add);
-        self.last_sample = t_now;
-        // 3. Decode as the HAL does.
-        let raw = match self.mode {
-            DecodeMode::Window => {
-                let s = RawSample { counter: self.gated as u16, cycles: (t_now.round() as u64) as u32 };
-                match self.sampler.push(s) {
-                    Some((h, e)) => decode_window(h, e, &DecodeConfig::DEFAULT),
-                    None => EncoderReading::Lost(LossReason::WindowTooShort),
-                }
-            }
-            DecodeMode::Frame => {
-                let q = |t: f64| (t / CYCLES_PER_QT_TICK).ceil();
-                match self.frames.iter().rev().find(|f| f.end <= t_now) {
-                    None => EncoderReading::Lost(LossReason::WindowTooShort),
-                    Some(f) => {
-                        let period_ticks = q(f.end) - q(f.start);
-                        let high = match self.line {
-                            Line::StuckLow => 0.0,
-                            Line::StuckHigh => period_ticks,
-                            Line::Ok => q(f.high_end) - q(f.start),
-                        };
-                        let cycles = (period_ticks * CYCLES_PER_QT_TICK) as u32;
-                        decode_window(high as u32, cycles, &DecodeConfig::DEFAULT)
-                    }
-                }
-            }
-        };
-        self.last_raw = raw.count();
-        match self.tracker.update(raw) {
-            EncoderReading::Count(c) => {
-                self.stats.ok += 1;
-                EncoderSample::Count(c)
-            }
-            EncoderReading::Lost(r) => {
-                self.stats.add(r);
-                EncoderSample::Lost
+        // 2. Rising edges in (t_prev, t_now]: CAPT := counter at the edge.
+        if self.line == Line::Ok {
+            for f in self.frames.iter().filter(|f| f.start > t_prev && f.start <= t_now) {
+                self.capt = self.gated.wrapping_add(self.high_ticks(t_prev, f.start)) as u16;
+                self.ief = true;
             }
         }
+        // 3. The gated counter at t_now.
+        self.gated = self.gated.wrapping_add(self.high_ticks(t_prev, t_now));
+        self.last_sample = t_now;
+        // 4. The read: SCTRL, CAPT, CNTR + CYCCNT, clear IEF, SCTRL again.
+        let input_high = self.pin_high(t_now);
+        let edge_during_read = self.line == Line::Ok
+            && self
+                .frames
+                .iter()
+                .any(|f| (f.start > t_now && f.start <= horizon) || (f.high_end > t_now && f.high_end <= horizon));
+        let s = Snapshot {
+            ief: self.ief,
+            input_high,
+            capt: self.capt,
+            cntr: self.gated as u16,
+            cycles: (t_now.round() as u64) as u32,
+            consistent: !edge_during_read,
+        };
+        self.ief = false;
+        s
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hal_imxrt::pure::channel::EncoderChannel;
+    use hal_imxrt::pure::encoder::EncoderReading;
 
-    fn run(mode: DecodeMode, count: f64, speed_counts_per_ms: f64, ticks: usize) -> Vec<EncoderSample> {
-        let mut e = Encoder::new(mode, 0.37, 0.0, 0.0);
+    fn run(count: f64, speed_counts_per_ms: f64, ticks: usize) -> Vec<EncoderReading> {
+        let mut e = Encoder::new(0.37, 0.0, 0.0);
+        let mut ch = EncoderChannel::new();
         let mut rng = Rng::new(1);
         let mut c = count;
         (1..=ticks)
             .map(|k| {
                 let prev = c;
                 c += speed_counts_per_ms;
-                e.sample(k as f64 * 600_000.0, prev, c, &mut rng)
+                ch.update(e.sample(k as f64 * 600_000.0, prev, c, &mut rng))
             })
             .collect()
     }
 
     #[test]
-    fn frame_mode_is_exact_at_rest() {
+    fn shipped_decoder_is_exact_at_rest() {
         for count in [0.0, 1.0, 17.0, 2048.0, 4000.0, 4095.0] {
-            let s = run(DecodeMode::Frame, count, 0.0, 20);
-            assert_eq!(s[19], EncoderSample::Count(count as u16), "count {count}");
+            let s = run(count, 0.0, 40);
+            assert_eq!(s[39], EncoderReading::Count(count as u16), "count {count}");
         }
     }
 
     #[test]
-    fn frame_mode_crosses_the_wrap() {
-        let s = run(DecodeMode::Frame, 4000.0, 20.0, 30);
-        let counts: Vec<u16> =
-            s.iter().filter_map(|x| if let EncoderSample::Count(c) = x { Some(*c) } else { None }).collect();
-        assert!(counts.len() >= 25);
+    fn shipped_decoder_crosses_the_wrap() {
+        let s = run(4000.0, 20.0, 60);
+        let counts: Vec<u16> = s.iter().filter_map(|x| x.count()).collect();
+        assert!(counts.len() >= 40, "{}", counts.len());
         assert!(counts.iter().any(|c| *c > 4000) && counts.iter().any(|c| *c < 400));
         for w in counts.windows(2) {
             assert!(hal_imxrt::pure::encoder::circular_distance(w[0], w[1]) <= 45, "{w:?}");
@@ -309,21 +269,14 @@ mod tests {
     }
 
     #[test]
-    fn window_mode_has_the_hal_phase_error() {
-        let s = run(DecodeMode::Window, 2048.0, 0.0, 200);
-        let counts: Vec<i32> =
-            s.iter().filter_map(|x| if let EncoderSample::Count(c) = x { Some(*c as i32) } else { None }).collect();
-        let max = counts.iter().map(|c| (c - 2048).abs()).max().unwrap();
-        assert!(max > 30 && max <= 125, "phase error {max}");
-    }
-
-    #[test]
     fn stuck_low_is_lost() {
-        let mut e = Encoder::new(DecodeMode::Frame, 0.1, 0.0, 0.0);
+        let mut e = Encoder::new(0.1, 0.0, 0.0);
+        let mut ch = EncoderChannel::new();
         let mut rng = Rng::new(1);
         e.line = Line::StuckLow;
         for k in 1..10 {
-            assert_eq!(e.sample(k as f64 * 600_000.0, 100.0, 100.0, &mut rng), EncoderSample::Lost);
+            let r = ch.update(e.sample(k as f64 * 600_000.0, 100.0, 100.0, &mut rng));
+            assert!(matches!(r, EncoderReading::Lost(_)), "{r:?}");
         }
     }
 }

@@ -7,16 +7,17 @@ use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::os::fd::AsRawFd;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
+use firmware::root::HostConfig;
 use kernel::config::ArmConfig;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
-use nix::sys::termios::{cfmakeraw, tcflush, tcgetattr, tcsetattr, FlushArg, SetArg};
-use protocol::feedback::FeedbackMode;
+use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
 use crate::plant::PlantOptions;
-use crate::root::{Root, Step};
+use crate::root::{Root, SimPort, Step};
 
 /// Live-mode options.
 #[derive(Clone, Debug)]
@@ -28,22 +29,17 @@ pub struct LiveOptions {
     pub speed: f64,
     /// Stop after this many wall-clock seconds (default: run until killed).
     pub run_for: Option<f64>,
-    /// Which feedback lines to send.
-    pub feedback: FeedbackMode,
+    /// The main loop's settings (feedback lines and their rates).
+    pub host: HostConfig,
     /// The simulated arm.
     pub plant: PlantOptions,
 }
 
 impl LiveOptions {
-    /// Defaults: real time, both feedback lines, the default plant.
+    /// Defaults: real time, the USB build's main loop (both clients), the
+    /// default plant.
     pub fn new(cfg: &ArmConfig) -> Self {
-        LiveOptions {
-            tcp: None,
-            speed: 1.0,
-            run_for: None,
-            feedback: FeedbackMode::Both,
-            plant: PlantOptions::new(cfg),
-        }
+        LiveOptions { tcp: None, speed: 1.0, run_for: None, host: HostConfig::USB, plant: PlantOptions::new(cfg) }
     }
 }
 
@@ -56,10 +52,8 @@ fn set_nonblocking<F: AsRawFd>(fd: &F) -> Result<()> {
 
 struct Outputs {
     master: File,
-    slave: std::os::fd::OwnedFd,
     tcp: Option<TcpListener>,
     client: Option<TcpStream>,
-    dropped: u64,
 }
 
 impl Outputs {
@@ -111,31 +105,26 @@ impl Outputs {
         Ok(())
     }
 
-    fn write(&mut self, line: &str) {
-        let b = line.as_bytes();
-        match self.master.write(b) {
-            Ok(n) if n == b.len() => {}
-            _ => {
-                // Nobody is reading the pty: discard what is queued (stale
-                // feedback) and retry once, as a USB CDC port without a host
-                // would drop it.
-                let _ = tcflush(&self.slave, FlushArg::TCIFLUSH);
-                if !matches!(self.master.write(b), Ok(n) if n == b.len()) {
-                    self.dropped += 1;
-                }
-            }
-        }
-        let mut drop_client = false;
+    /// The port's transmit side: the connected TCP client if there is one,
+    /// else the pseudo-terminal. Never blocks; returns how many bytes the
+    /// transport took (what it did not take stays in the firmware's transmit
+    /// ring, where the shared root counts and reports any loss).
+    fn write(&mut self, b: &[u8]) -> usize {
         if let Some(c) = &mut self.client {
-            match c.write_all(b) {
-                Ok(()) => {}
-                Err(e) if e.kind() == ErrorKind::WouldBlock => self.dropped += 1,
-                Err(_) => drop_client = true,
-            }
+            return match c.write(b) {
+                Ok(n) => n,
+                Err(e) if e.kind() == ErrorKind::WouldBlock || e.kind() == ErrorKind::Interrupted => 0,
+                Err(_) => {
+                    println!("tcp client disconnected");
+                    self.client = None;
+                    0
+                }
+            };
         }
-        if drop_client {
-            println!("tcp client disconnected");
-            self.client = None;
+        match self.master.write(b) {
+            Ok(n) => n,
+            // WouldBlock: nobody is reading and the pty buffer is full.
+            Err(_) => 0,
         }
     }
 }
@@ -156,7 +145,9 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
         }
         None => None,
     };
-    let mut io = Outputs { master: File::from(pty.master), slave: pty.slave, tcp, client: None, dropped: 0 };
+    let io = Arc::new(Mutex::new(Outputs { master: File::from(pty.master), tcp, client: None }));
+    // Keep the slave side open so the master never sees EIO between clients.
+    let _slave = pty.slave;
     println!("PTY {}", path.display());
     if let Some(a) = &o.tcp {
         println!("TCP {a}");
@@ -168,9 +159,9 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
         path.display()
     );
 
-    let mut root = Root::new(cfg, o.plant.clone(), o.feedback);
-    let banner = root.banner();
-    io.write(&banner);
+    let sink_io = Arc::clone(&io);
+    let port = SimPort::with_sink(Box::new(move |b: &[u8]| sink_io.lock().map_or(0, |mut o| o.write(b))));
+    let mut root = Root::with_port(cfg, o.plant.clone(), o.host, port);
     let start = Instant::now();
     let mut t_sim: u64 = 0;
     let mut pending: Vec<u8> = Vec::new();
@@ -183,7 +174,7 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
         if o.run_for.is_some_and(|d| wall >= d) {
             break;
         }
-        io.read_into(&mut pending)?;
+        io.lock().map_err(|_| anyhow::anyhow!("pty state poisoned"))?.read_into(&mut pending)?;
         let due = (wall * 1000.0 * o.speed) as u64;
         let due = due.saturating_sub(skipped);
         if due > t_sim + 1000 {
@@ -195,8 +186,7 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
             let input = std::mem::take(&mut pending);
             let step = root.step(&input);
             for l in &step.lines {
-                io.write(l);
-                if !l.starts_with('<') {
+                if !l.trim_start().starts_with('<') {
                     print!("{:>9.3} s  {l}", t_sim as f64 / 1000.0);
                 }
             }
@@ -214,10 +204,14 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
         }
         std::thread::sleep(Duration::from_micros(250));
     }
+    let tx = root.tx_counters();
     println!(
-        "stopped after {:.1} s simulated; {} feedback/report lines dropped (no reader); {} ms skipped; {} safety violations",
+        "stopped after {:.1} s simulated; {} lines sent, {} dropped (slow or absent reader; reported on the wire as \
+         TX_LOST), {} critical dropped; {} ms skipped; {} safety violations",
         t_sim as f64 / 1000.0,
-        io.dropped,
+        tx.queued,
+        tx.dropped + tx.dropped_closed,
+        tx.critical_dropped,
         skipped,
         violations
     );

@@ -5,7 +5,7 @@
 //! sim run FILE... [--builtin] run scenario files (and the built-ins too with --builtin)
 //! sim list                    list the built-in scenarios
 //! sim live [options]          serve the wire protocol on a pseudo-terminal in real time
-//! common: --out DIR (default target/sim-report), --decode window|frame
+//! common: --out DIR (default target/sim-report), --serial1 (the Serial1 build's feedback budget)
 //! ```
 
 use std::io::{IsTerminal, Write};
@@ -15,7 +15,6 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use kernel::config::PAROL6;
-use sim::encoder::DecodeMode;
 use sim::live::LiveOptions;
 use sim::report::{summary, Report};
 use sim::runner::{run, RunOptions};
@@ -28,7 +27,7 @@ usage:
   sim list                          list the built-in scenarios
   sim live [--tcp ADDR:PORT] [--speed X] [--pose P1,..,P6] [--feedback both|driver|config] [--for SECONDS]
                                     serve the wire protocol on a pseudo-terminal, 1 kHz paced by the wall clock
-options: --out DIR (report directory), --decode window|frame (encoder decode for every scenario)";
+options: --out DIR (report directory), --serial1 (main loop as the Serial1 build: configurator line at 10 Hz)";
 
 fn main() -> ExitCode {
     match real_main() {
@@ -62,11 +61,11 @@ fn real_main() -> Result<ExitCode> {
                 return Ok(ExitCode::SUCCESS);
             }
             "--out" => out = PathBuf::from(value(&args, &mut i, a)?),
-            "--decode" => {
-                let d = value(&args, &mut i, a)?;
-                let d = DecodeMode::parse(&d).with_context(|| format!("--decode must be window or frame, not {d}"))?;
-                opts.decode = Some(d);
-                live.plant.decode = d;
+            "--serial1" => {
+                opts.serial1 = true;
+                let feedback = live.host.feedback;
+                live.host = firmware::root::HostConfig::SERIAL1;
+                live.host.feedback = feedback;
             }
             "--builtin" => with_builtin = true,
             "--tcp" => live.tcp = Some(value(&args, &mut i, a)?),
@@ -96,7 +95,7 @@ fn real_main() -> Result<ExitCode> {
             }
             "--feedback" => {
                 let v = value(&args, &mut i, a)?;
-                live.feedback = match v.as_str() {
+                live.host.feedback = match v.as_str() {
                     "both" => protocol::feedback::FeedbackMode::Both,
                     "driver" => protocol::feedback::FeedbackMode::Driver,
                     "config" | "configurator" => protocol::feedback::FeedbackMode::Configurator,

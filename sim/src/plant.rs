@@ -1,11 +1,11 @@
 //! The simulated PAROL6: six stepper axes, MT6816 encoders on the motor
 //! shafts, and limit switches, sampled once per control tick.
 
-use hal_imxrt::pure::debounce::{Debounce, LimitState};
+use hal_imxrt::pure::frame::Snapshot;
+use hal_imxrt::pure::step::{achieved_rate_mhz, StepCommand, StepConfig};
 use kernel::config::{ArmConfig, Direction, AXES};
-use kernel::{EncoderSample, Sense};
 
-use crate::encoder::{DecodeMode, Encoder, Line, CPU_HZ};
+use crate::encoder::{Encoder, Line, CPU_HZ};
 use crate::rng::Rng;
 
 /// Plant options (all per scenario).
@@ -19,8 +19,6 @@ pub struct PlantOptions {
     pub noise_counts: f64,
     /// Encoder PWM clock error (ppm), per axis.
     pub clock_ppm: [f64; AXES],
-    /// How the encoder signal is decoded.
-    pub decode: DecodeMode,
     /// Step-rate limit of the step generator / driver (steps/s).
     pub max_step_rate: f64,
     /// Joint angle at which each limit switch closes (pressed beyond it in
@@ -40,7 +38,6 @@ impl PlantOptions {
             encoder_offset: [0.7, 2.1, 3.3, 5.9, 1.1, 4.4],
             noise_counts: 0.5,
             clock_ppm: [120.0, -80.0, 35.0, -150.0, 60.0, 10.0],
-            decode: DecodeMode::Frame,
             max_step_rate: f64::from(cfg.max_step_rate),
             switch_at: cfg.joints.map(|j| f64::from(j.homing.switch_position)),
             jitter_cycles: 600.0,
@@ -58,7 +55,6 @@ struct Axis {
     lost_fraction: f64,
     disturbance: f64,
     force_switch: Option<bool>,
-    debounce: Debounce,
     encoder: Encoder,
 }
 
@@ -87,8 +83,7 @@ impl Plant {
                 lost_fraction: 0.0,
                 disturbance: 0.0,
                 force_switch: None,
-                debounce: Debounce::new(),
-                encoder: Encoder::new(opts.decode, rng.uniform(), opts.clock_ppm[i], opts.noise_counts),
+                encoder: Encoder::new(rng.uniform(), opts.clock_ppm[i], opts.noise_counts),
             })
             .collect();
         Plant {
@@ -128,36 +123,38 @@ impl Plant {
         }
     }
 
-    /// Samples encoders and switches at the start of the current tick.
+    /// Reads the six QuadTimer capture channels at the start of the
+    /// current tick (as the firmware's `FrameCapture::sample`).
     #[allow(clippy::needless_range_loop)] // several per-axis arrays
-    pub fn sense(&mut self) -> Sense {
+    pub fn capture(&mut self) -> [Snapshot; AXES] {
         let jitter = (self.rng.uniform() * 2.0 - 1.0) * self.opts.jitter_cycles;
         let t = (self.tick + 1) as f64 * self.tick_cycles + jitter;
-        let mut encoders = [EncoderSample::Lost; AXES];
-        let mut limits = 0u8;
+        let mut out =
+            [Snapshot { ief: false, input_high: false, capt: 0, cntr: 0, cycles: 0, consistent: false }; AXES];
         for i in 0..AXES {
             let (cp, cn) = (self.motor_counts(i, self.axes[i].q_prev), self.motor_counts(i, self.axes[i].q));
-            let closed = self.switch_closed(i);
-            let a = &mut self.axes[i];
-            encoders[i] = a.encoder.sample(t, cp, cn, &mut self.rng);
-            // Pull-up input, switch to ground: closed reads low. Until the
-            // debounce has confirmed a level, report pressed (not safe).
-            match a.debounce.sample(!closed) {
-                LimitState::Released => {}
-                LimitState::Pressed | LimitState::Unknown => limits |= 1 << i,
-            }
+            out[i] = self.axes[i].encoder.sample(t, cp, cn, &mut self.rng);
         }
-        Sense { encoders, limits, hardware_fault: None }
+        out
     }
 
-    /// Applies step rates (steps/s) for one tick.
+    /// The raw limit inputs: bit `i` set when J(i+1)'s pin is high (pull-up
+    /// input, switch to ground: an open switch reads high).
+    pub fn limit_levels(&self) -> u8 {
+        (0..AXES).filter(|&i| !self.switch_closed(i)).fold(0u8, |m, i| m | (1 << i))
+    }
+
+    /// Applies one tick of step commands: each axis steps at the rate the
+    /// step generator actually produces for its command (prescaler and
+    /// period quantisation included), limited by `max_step_rate`.
     #[allow(clippy::needless_range_loop)] // several per-axis arrays
-    pub fn apply(&mut self, step_rate: &[i32; AXES]) {
+    pub fn apply(&mut self, cmds: &[StepCommand; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
         for i in 0..AXES {
             let j = self.cfg.joints[i];
             let spr = j.steps_per_rad();
-            let rate = f64::from(step_rate[i]).clamp(-self.opts.max_step_rate, self.opts.max_step_rate);
+            let achieved = achieved_rate_mhz(&cmds[i], &StepConfig::DEFAULT) as f64 / 1000.0;
+            let rate = achieved.clamp(-self.opts.max_step_rate, self.opts.max_step_rate);
             self.applied_rate[i] = rate;
             let a = &mut self.axes[i];
             a.step_acc += rate * dt;
@@ -195,20 +192,6 @@ impl Plant {
     pub fn set_noise(&mut self, sigma: f64) {
         for a in &mut self.axes {
             a.encoder.noise = sigma;
-        }
-    }
-    /// Encoder decode statistics per axis.
-    pub fn decode_stats(&self) -> [crate::encoder::DecodeStats; AXES] {
-        core::array::from_fn(|i| self.axes[i].encoder.stats)
-    }
-    /// Composition-root policy: encoders whose tracker latched
-    /// `Unrecoverable` re-acquire (called while the kernel holds a fault, so
-    /// the count restarts only under a fault that requires re-homing).
-    pub fn reset_latched_trackers(&mut self) {
-        for a in &mut self.axes {
-            if a.encoder.tracker_latched() {
-                a.encoder.reset_tracker();
-            }
         }
     }
 }

@@ -1,35 +1,34 @@
-//! The composition root, as in the firmware: bytes from the host go through
-//! the protocol crate's [`Receiver`] (framer, parser, sequence filter) into
-//! the command queue; the 1 kHz tick takes at most one command, turns
-//! `<ENABLE>` into [`kernel::Request::Enable`] with the [`Authority`] it
-//! alone holds, runs the kernel on the plant's sensors, applies the outputs
-//! to the plant and queues status and events; the main loop turns telemetry
-//! into lines with the protocol crate's formatters.
+//! The simulator's board: the firmware's composition root
+//! ([`firmware::root`], the code that is flashed) on a simulated arm.
+//!
+//! Only the board binding is the simulator's own: [`SimBoard`] implements
+//! [`TickBoard`] over the [`Plant`] (QuadTimer capture snapshots, raw limit
+//! levels, step commands at the rate the step generator produces them) and
+//! [`SimPort`] implements [`Port`] over in-memory bytes or a pseudo-terminal.
+//! Decode, debounce, sensing, the kernel, the enable authority, actuation,
+//! telemetry, line formatting and the transmit policy are
+//! `firmware::root`, the same type the Teensy image builds (see the test
+//! `firmware_and_simulator_share_the_root` in `sim/tests/live.rs`).
 
+use std::collections::VecDeque;
 use std::time::Instant;
 
+use firmware::board::{Port, TickBoard};
+use firmware::root::{self, Controller, Host, HostConfig, RootLink, TickRecord};
+use firmware::tx::TxCounters;
+use hal_imxrt::pure::frame::Snapshot;
+use hal_imxrt::pure::step::StepCommand;
 use kernel::config::{ArmConfig, AXES};
 use kernel::homing::Phase;
-use kernel::{Authority, KernelF32, RequestKind, TickOutput};
-use protocol::feedback::{configurator_line, driver_line, FeedbackDivider, FeedbackMode};
-use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
-use protocol::receiver::{Received, Receiver};
-use protocol::report::{
-    banner_line, config_fingerprint, event_line, events_lost_line, queue_full_line, telemetry_lost_line,
-};
-use protocol::{Command, Line, ProtocolConfig};
+use kernel::{KernelF32, RequestKind, TickOutput};
 
+use crate::encoder::DecodeStats;
 use crate::plant::{Plant, PlantOptions};
-
-/// Command queue slots (as the firmware's default).
-pub const CMD_SLOTS: usize = 8;
-/// Telemetry queue slots.
-pub const TEL_SLOTS: usize = 16;
 
 /// What one step did.
 #[derive(Clone, Debug)]
 pub struct Step {
-    /// Simulated time of this tick (ms since power-on).
+    /// Simulated time of this tick (ms since the first tick).
     pub t_ms: u64,
     /// The kernel's output.
     pub out: TickOutput<f32>,
@@ -39,172 +38,200 @@ pub struct Step {
     pub target: Option<[f32; AXES]>,
     /// Homing phase of every axis after the tick.
     pub phases: [Phase; AXES],
-    /// Every line sent to the host during this step, in order.
+    /// Every complete line the port took during this step, in order.
     pub lines: Vec<String>,
 }
 
-/// Kernel, plant and protocol wired as in the firmware.
-pub struct Root {
-    cfg: ArmConfig,
-    kernel: KernelF32,
-    authority: Authority,
+/// The simulated arm as the tick sees it.
+#[derive(Debug)]
+pub struct SimBoard {
     /// The simulated arm.
     pub plant: Plant,
-    rx: Receiver<f32>,
-    host: HostEnd<'static, f32, CMD_SLOTS, TEL_SLOTS>,
-    tick: TickEnd<'static, f32, CMD_SLOTS, TEL_SLOTS>,
-    divider: FeedbackDivider,
-    mode: FeedbackMode,
+    /// Fault injection: the next tick reports an overrun.
+    pub overrun: bool,
+    /// Watchdog refreshes so far.
+    pub watchdog_feeds: u64,
+    started: Instant,
+}
+
+impl TickBoard for SimBoard {
+    fn capture(&mut self) -> [Snapshot; AXES] {
+        self.plant.capture()
+    }
+    fn limit_levels(&mut self) -> u8 {
+        self.plant.limit_levels()
+    }
+    fn apply(&mut self, cmds: &[StepCommand; AXES]) {
+        self.plant.apply(cmds);
+    }
+    fn feed_watchdog(&mut self) {
+        self.watchdog_feeds += 1;
+    }
+    fn cycles(&self) -> u32 {
+        // The host's own time at 600 MHz: the tick duration on the
+        // configurator line is the simulator's, not the Teensy's.
+        (self.started.elapsed().as_nanos() * 3 / 5) as u32
+    }
+    fn end_of_tick(&mut self) -> bool {
+        std::mem::take(&mut self.overrun)
+    }
+    fn boot_wait_ms(&mut self) {
+        self.plant.apply(&[StepCommand::Stop; AXES]);
+    }
+}
+
+/// Where the port's transmitted bytes go: returns how many it took.
+pub type Sink = Box<dyn FnMut(&[u8]) -> usize + Send>;
+
+/// A byte link to the simulated host.
+pub struct SimPort {
+    /// Bytes from the host not yet read by the firmware.
+    pub input: VecDeque<u8>,
+    /// A host has the port open (USB: configured with DTR).
+    pub open: bool,
+    sink: Option<Sink>,
+    taken: Vec<u8>,
+}
+
+impl std::fmt::Debug for SimPort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimPort").field("input", &self.input.len()).field("open", &self.open).finish()
+    }
+}
+
+impl SimPort {
+    /// An open port whose host takes every byte at once.
+    pub fn unlimited() -> Self {
+        SimPort { input: VecDeque::new(), open: true, sink: None, taken: Vec::new() }
+    }
+    /// An open port whose bytes go to `sink` (which may take fewer).
+    pub fn with_sink(sink: Sink) -> Self {
+        SimPort { input: VecDeque::new(), open: true, sink: Some(sink), taken: Vec::new() }
+    }
+}
+
+impl Port for SimPort {
+    fn is_open(&self) -> bool {
+        self.open
+    }
+    fn read(&mut self) -> Option<u8> {
+        self.input.pop_front()
+    }
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        if !self.open {
+            return 0;
+        }
+        let n = match &mut self.sink {
+            Some(s) => s(bytes).min(bytes.len()),
+            None => bytes.len(),
+        };
+        self.taken.extend_from_slice(&bytes[..n]);
+        n
+    }
+}
+
+/// The firmware's composition root on a [`SimBoard`] and a [`SimPort`].
+pub struct Root {
+    controller: Controller<'static>,
+    host: Host<'static>,
+    /// The simulated board.
+    pub board: SimBoard,
+    /// The simulated link.
+    pub port: SimPort,
+    stats: [DecodeStats; AXES],
     t_ms: u64,
-    line: Line,
+    partial: Vec<u8>,
 }
 
 impl std::fmt::Debug for Root {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Root").field("t_ms", &self.t_ms).field("state", &self.kernel.state()).finish()
+        f.debug_struct("Root").field("t_ms", &self.t_ms).field("controller", &self.controller).finish()
     }
 }
 
 impl Root {
-    /// A powered-on (not yet ticked) controller on a plant.
-    pub fn new(cfg: &ArmConfig, plant: PlantOptions, mode: FeedbackMode) -> Self {
-        let (kernel, authority) = KernelF32::new(cfg);
-        // The firmware keeps its link in a `static`; the sim leaks one small
-        // link (a few kB) per controller to get the same `'static` ends.
-        let link: &'static mut Link<f32, CMD_SLOTS, TEL_SLOTS> = Box::leak(Box::new(Link::new()));
-        let (host, tick) = link.split();
-        Root {
-            cfg: *cfg,
-            kernel,
-            authority,
-            plant: Plant::new(cfg, plant),
-            rx: Receiver::new(cfg, ProtocolConfig::DEFAULT),
-            host,
-            tick,
-            divider: FeedbackDivider::default_for(cfg.tick_hz),
-            mode,
-            t_ms: 0,
-            line: Line::new(),
-        }
+    /// A controller on a plant, booted (the firmware's self-test ran for
+    /// `SELF_TEST_MS` of simulated time), not yet ticked; an always-open
+    /// port that takes every byte.
+    pub fn new(cfg: &ArmConfig, plant: PlantOptions, host: HostConfig) -> Self {
+        Self::with_port(cfg, plant, host, SimPort::unlimited())
     }
 
-    /// The boot banner line.
+    /// As [`Root::new`] on a given port.
+    pub fn with_port(cfg: &ArmConfig, plant: PlantOptions, host: HostConfig, port: SimPort) -> Self {
+        // The firmware keeps its link in a `static`; the simulator leaks one
+        // small link (a few kB) per controller to get the same `'static`
+        // halves.
+        let link: &'static mut RootLink = Box::leak(Box::new(RootLink::new()));
+        let (mut controller, host) = root::new(cfg, link, host);
+        let mut board =
+            SimBoard { plant: Plant::new(cfg, plant), overrun: false, watchdog_feeds: 0, started: Instant::now() };
+        let _ = controller.boot(&mut board, 0, false);
+        Root { controller, host, board, port, stats: [DecodeStats::default(); AXES], t_ms: 0, partial: Vec::new() }
+    }
+
+    /// The simulated arm.
+    pub fn plant(&mut self) -> &mut Plant {
+        &mut self.board.plant
+    }
+
+    /// The banner the firmware sends when a host opens the port.
     pub fn banner(&mut self) -> String {
-        let fp = config_fingerprint(&self.cfg);
-        match banner_line(
-            &mut self.line,
-            concat!("sim-", env!("CARGO_PKG_VERSION")),
-            fp,
-            self.rx.parser().lock(),
-            self.mode,
-        ) {
-            Ok(()) => self.line.to_string(),
-            Err(_) => "BOOT (banner did not fit)\n".to_string(),
-        }
+        self.host.banner().to_string()
     }
 
-    /// Protocol counters.
+    /// Receiver counters.
     pub fn counters(&self) -> protocol::receiver::Counters {
-        self.rx.counters()
+        self.host.counters()
+    }
+
+    /// Transmit counters.
+    pub fn tx_counters(&self) -> TxCounters {
+        self.host.tx_counters()
     }
 
     /// Commands refused by the queue.
     pub fn queue_refused(&self) -> u32 {
-        self.host.refused()
+        self.host.queue_refused()
     }
 
     /// Kernel (read-only).
     pub fn kernel(&self) -> &KernelF32 {
-        &self.kernel
+        self.controller.kernel()
     }
 
-    fn emit(line: &Line, r: Result<(), protocol::Full>, lines: &mut Vec<String>) {
-        match r {
-            Ok(()) => lines.push(line.to_string()),
-            Err(_) => lines.push("LINE_OVERFLOW\n".to_string()),
-        }
+    /// Decode outcomes per axis (the shipped decoder's readings).
+    pub fn decode_stats(&self) -> [DecodeStats; AXES] {
+        self.stats
     }
 
-    /// One millisecond: the main loop handles `input`, then one control
-    /// tick runs, then the main loop formats the telemetry.
+    /// One millisecond: the main loop takes `input` (and whatever the port
+    /// still holds), one control tick runs, then the main loop formats the
+    /// telemetry and moves what the port takes.
     pub fn step(&mut self, input: &[u8]) -> Step {
-        let mut lines = Vec::new();
+        self.port.input.extend(input);
         let now = self.t_ms as u32;
-        // Main loop: bytes -> lines -> commands -> queue.
-        for &b in input {
-            let Some(r) = self.rx.push(b, now) else { continue };
-            match r.report(&mut self.line) {
-                Ok(true) => lines.push(self.line.to_string()),
-                Ok(false) => {}
-                Err(_) => lines.push("LINE_OVERFLOW\n".to_string()),
-            }
-            if let Received::Accepted { command, .. } = r {
-                if let Err(q) = self.host.send(command) {
-                    let res = queue_full_line(&mut self.line, &q);
-                    Self::emit(&self.line, res, &mut lines);
-                }
-            }
+        self.host.receive(&mut self.port, now);
+        let rec: TickRecord = self.controller.tick(&mut self.board);
+        for (s, r) in self.stats.iter_mut().zip(rec.readings) {
+            s.add(r);
         }
-        // Tick: sense, one request, kernel, act.
-        let sense = self.plant.sense();
-        // At most one command per tick (a HOME that arrives during Boot is
-        // queued by the kernel itself: Event::HomingQueued).
-        let cmd = self.tick.recv();
-        let target = match &cmd {
-            Some(Command::Motion { target, .. }) => Some(target.position),
-            _ => None,
+        self.host.transmit(&mut self.port);
+        self.partial.append(&mut self.port.taken);
+        let mut lines = Vec::new();
+        while let Some(nl) = self.partial.iter().position(|b| *b == b'\n') {
+            let rest = self.partial.split_off(nl + 1);
+            lines.push(String::from_utf8_lossy(&self.partial).into_owned());
+            self.partial = rest;
+        }
+        let step = Step {
+            t_ms: self.t_ms,
+            out: rec.out,
+            request: rec.request,
+            target: rec.target,
+            phases: self.controller.homing_phases(),
+            lines,
         };
-        let request = cmd.map(|c| c.into_request(&self.authority));
-        let kind = request.as_ref().map(|r| r.kind());
-        let started = Instant::now();
-        let out = self.kernel.tick(&sense, request);
-        let tick_us = started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32;
-        self.plant.apply(&out.act.step_rate);
-        for e in out.events.iter() {
-            self.tick.send(Telemetry::Event(*e));
-        }
-        if out.events.dropped() > 0 {
-            self.tick.send(Telemetry::EventsLost(out.events.dropped()));
-        }
-        if self.divider.tick() {
-            self.tick.send(Telemetry::Status { status: out.status, tick_us });
-        }
-        if self.kernel.state() == kernel::State::Fault {
-            // Policy of this composition root: an encoder whose continuity
-            // tracker latched re-acquires while the kernel holds a fault;
-            // the kernel re-initialises that axis on ENABLE and requires
-            // re-homing.
-            self.plant.reset_latched_trackers();
-        }
-        // Main loop: telemetry -> lines.
-        while let Some(t) = self.host.recv() {
-            match t {
-                Telemetry::Status { status, tick_us } => {
-                    let seq = self.rx.last_seq();
-                    if matches!(self.mode, FeedbackMode::Configurator | FeedbackMode::Both) {
-                        let r = configurator_line(&mut self.line, seq, &status, tick_us);
-                        Self::emit(&self.line, r, &mut lines);
-                    }
-                    if matches!(self.mode, FeedbackMode::Driver | FeedbackMode::Both) {
-                        let r = driver_line(&mut self.line, seq, &status);
-                        Self::emit(&self.line, r, &mut lines);
-                    }
-                }
-                Telemetry::Event(e) => {
-                    let r = event_line(&mut self.line, &e);
-                    Self::emit(&self.line, r, &mut lines);
-                }
-                Telemetry::EventsLost(n) => {
-                    let r = events_lost_line(&mut self.line, u32::from(n));
-                    Self::emit(&self.line, r, &mut lines);
-                }
-                Telemetry::Lost(n) => {
-                    let r = telemetry_lost_line(&mut self.line, n);
-                    Self::emit(&self.line, r, &mut lines);
-                }
-            }
-        }
-        let step = Step { t_ms: self.t_ms, out, request: kind, target, phases: self.kernel.homing_phases(), lines };
         self.t_ms += 1;
         step
     }

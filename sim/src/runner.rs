@@ -4,12 +4,11 @@
 
 use std::collections::BTreeMap;
 
+use firmware::root::HostConfig;
 use kernel::config::{ArmConfig, AXES};
 use kernel::{Event, FaultReason, HomingStatus, Kernel, RequestKind, State};
-use protocol::feedback::FeedbackMode;
 
 use crate::client::{configurator_line, driver_line, driver_view};
-use crate::encoder::DecodeMode;
 use crate::plant::PlantOptions;
 use crate::report::{JointError, Report};
 use crate::root::{Root, Step};
@@ -18,8 +17,9 @@ use crate::scenario::{Action, Anchor, Client, Expect, Motion, Scenario};
 /// Options for a run.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Override every scenario's decode mode.
-    pub decode: Option<DecodeMode>,
+    /// Run the main loop as the Serial1 build does (feedback budget of
+    /// `HostConfig::SERIAL1`) instead of USB.
+    pub serial1: bool,
 }
 
 /// One recorded tick (what the plots and the report need).
@@ -212,9 +212,6 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     if let Some(n) = sc.noise {
         popts.noise_counts = n;
     }
-    if let Some(d) = opts.decode.or(sc.decode) {
-        popts.decode = d;
-    }
     for &(j, a) in &sc.switch_at {
         popts.switch_at[j] = a;
     }
@@ -222,8 +219,8 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         popts.max_step_rate = r;
     }
     popts.seed = sc.seed;
-    let decode = popts.decode;
-    let mut root = Root::new(cfg, popts, FeedbackMode::Both);
+    let host = if opts.serial1 { HostConfig::SERIAL1 } else { HostConfig::USB };
+    let mut root = Root::new(cfg, popts, host);
     let mut hosts = Hosts { driver_seq: 0, config_seq: 0, cable: true };
     let mut fired = vec![false; sc.actions.len()];
     let mut streams: Vec<Stream> = Vec::new();
@@ -241,8 +238,6 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     let mut lines_sent = 0u64;
     let mut bytes_in = 0u64;
     let mut prev: Option<Step> = None;
-    let banner = root.banner();
-    all_lines.push((0, banner));
     let mut t: u64 = 0;
     loop {
         let end = sc.end.resolve(&occ).unwrap_or(sc.max_ms).min(sc.max_ms);
@@ -291,12 +286,12 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                     }
                 }
                 Action::Cable(c) => hosts.cable = *c,
-                Action::Glitch { joint, offset, frames } => root.plant.glitch(*joint, *offset, *frames),
-                Action::Encoder(j, line) => root.plant.set_line(*j, *line),
-                Action::Switch(j, f) => root.plant.force_switch(*j, *f),
-                Action::Runaway(j, v) => root.plant.set_disturbance(*j, *v),
-                Action::LostSteps(j, f) => root.plant.set_lost_steps(*j, *f),
-                Action::Noise(n) => root.plant.set_noise(*n),
+                Action::Glitch { joint, offset, frames } => root.board.plant.glitch(*joint, *offset, *frames),
+                Action::Encoder(j, line) => root.board.plant.set_line(*j, *line),
+                Action::Switch(j, f) => root.board.plant.force_switch(*j, *f),
+                Action::Runaway(j, v) => root.board.plant.set_disturbance(*j, *v),
+                Action::LostSteps(j, f) => root.board.plant.set_lost_steps(*j, *f),
+                Action::Noise(n) => root.board.plant.set_noise(*n),
             }
         }
         // Streams.
@@ -336,7 +331,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         let step = root.step(&input);
         // Record.
         let out = &step.out;
-        let q = root.plant.q();
+        let q = root.board.plant.q();
         let accepted = step.request == Some(RequestKind::Motion)
             && !out.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
         if accepted {
@@ -565,7 +560,12 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         name: sc.name.clone(),
         description: sc.description.clone(),
         informational: sc.informational,
-        decode: decode.name().to_string(),
+        decode: if opts.serial1 {
+            "frame capture (shipped decoder), Serial1 host"
+        } else {
+            "frame capture (shipped decoder), USB host"
+        }
+        .to_string(),
         duration_ms: t,
         homed_at: occ[Anchor::Homed.index()].first().copied(),
         tracking: err,
@@ -581,7 +581,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         violations,
         violation_count,
         expectations,
-        decode_stats: root.plant.decode_stats(),
+        decode_stats: root.decode_stats(),
         lines_sent,
         bytes_in,
         commands_accepted: acc.len() as u64,

@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use kernel::config::AXES;
 
-use crate::encoder::{DecodeMode, Line};
+use crate::encoder::Line;
 
 /// Something that marks a point in time once it happens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -226,8 +226,6 @@ pub struct Scenario {
     pub pose: Option<[f64; AXES]>,
     /// Encoder noise (sigma, counts).
     pub noise: Option<f64>,
-    /// Encoder decode mode.
-    pub decode: Option<DecodeMode>,
     /// Switch angles overriding the configuration's.
     pub switch_at: Vec<(usize, f64)>,
     /// Step-rate limit (steps/s).
@@ -251,7 +249,6 @@ impl Scenario {
             informational: false,
             pose: None,
             noise: None,
-            decode: None,
             switch_at: Vec::new(),
             max_step_rate: None,
             seed: 1,
@@ -298,7 +295,10 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         "pose" => s.pose = Some(six(&words)?),
         "noise" => s.noise = Some(num(one(&words)?)?),
         "seed" => s.seed = one(&words)?.parse().context("seed must be an integer")?,
-        "decode" => s.decode = Some(DecodeMode::parse(one(&words)?).context("decode must be `window` or `frame`")?),
+        "decode" => bail!(
+            "`decode` is no longer a scenario setting: the simulator always runs the firmware's shipped \
+             frame-capture decoder (hal_imxrt::pure::channel)"
+        ),
         "switch-at" => {
             let [j, a] = two(&words)?;
             s.switch_at.push((joint(j)?, num(a)?));
@@ -313,7 +313,7 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         "expect" => s.expects.push(parse_expect(rest)?),
         other => bail!(
             "unknown keyword `{other}` (expected name, description, end, max, informational, pose, noise, seed, \
-             decode, switch-at, max-step-rate, at, expect)"
+             switch-at, max-step-rate, at, expect)"
         ),
     }
     Ok(())
@@ -579,7 +579,7 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 11] = [
+pub const BUILTIN: [(&str, &str); 10] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("configurator-jog-25hz", include_str!("../scenarios/configurator-jog-25hz.scn")),
@@ -590,7 +590,6 @@ pub const BUILTIN: [(&str, &str); 11] = [
     ("garbage", include_str!("../scenarios/garbage.scn")),
     ("runaway", include_str!("../scenarios/runaway.scn")),
     ("configurator-goto", include_str!("../scenarios/configurator-goto.scn")),
-    ("hal-window-decode", include_str!("../scenarios/hal-window-decode.scn")),
 ];
 
 /// Parses the built-in scenarios.

@@ -3,7 +3,6 @@
 
 use kernel::config::{AXES, PAROL6};
 use kernel::State;
-use sim::encoder::DecodeMode;
 use sim::plant::PlantOptions;
 use sim::report::Report;
 use sim::root::Root;
@@ -27,7 +26,7 @@ fn assert_passes(r: &Report) {
 #[test]
 fn every_builtin_scenario_parses_and_its_file_loads() {
     let all = builtin().unwrap();
-    assert_eq!(all.len(), 11);
+    assert_eq!(all.len(), 10);
     for s in &all {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(format!("{}.scn", s.name));
         let f = Scenario::from_file(&path).unwrap();
@@ -117,30 +116,21 @@ fn runaway_faults_every_axis_in_the_same_tick() {
     assert!(s.still && s.v.iter().all(|v| *v == 0.0));
 }
 
-/// hal-imxrt's committed 1 ms window decode: informational. Whatever it
-/// does, the kernel must stay safe; the outcome is printed.
+/// The Serial1 build's main loop (configurator line at 10 Hz) serves the
+/// same scenario safely, and both clients still get their lines.
 #[test]
-fn hal_window_decode_is_safe_whatever_it_does() {
-    let r = run_builtin("hal-window-decode");
-    assert!(r.safe(), "{:?}", r.violations);
-    println!("hal-window-decode: faults {:?}, homed {:?}", r.faults, r.homed_at);
-}
-
-/// The frame decode also works when forced on a scenario that defaults to it,
-/// and the window decode override is honoured.
-#[test]
-fn decode_override_is_honoured() {
-    let sc = builtin().unwrap().into_iter().find(|s| s.name == "startup-homing").unwrap();
-    let r = run(&PAROL6, &sc, &RunOptions { decode: Some(DecodeMode::Window) }, &mut |_| {});
-    assert_eq!(r.decode, "window");
-    assert!(r.safe());
+fn serial1_host_runs_the_stream_scenario() {
+    let sc = builtin().unwrap().into_iter().find(|s| s.name == "driver-trajectory-100hz").unwrap();
+    let r = run(&PAROL6, &sc, &RunOptions { serial1: true }, &mut |_| {});
+    assert!(r.decode.contains("Serial1"), "{}", r.decode);
+    assert_passes(&r);
 }
 
 /// The per-tick checker is not vacuous: it flags a moving output in UNHOMED
 /// and a `nan` on the wire.
 #[test]
 fn safety_checker_flags_violations() {
-    let mut root = Root::new(&PAROL6, PlantOptions::new(&PAROL6), protocol::feedback::FeedbackMode::Both);
+    let mut root = Root::new(&PAROL6, PlantOptions::new(&PAROL6), firmware::root::HostConfig::USB);
     let mut step = root.step(b"");
     for _ in 0..10 {
         step = root.step(b"");

@@ -45,7 +45,6 @@ use firmware::root::{self, Controller, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6};
 use protocol::report::config_fingerprint;
 
-
 #[cfg(feature = "tmc5160-selftest")]
 compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wiring in the pin map)");
 
