@@ -170,6 +170,17 @@ impl Root {
         Root { controller, host, board, port, stats: [DecodeStats::default(); AXES], t_ms: 0, partial: Vec::new() }
     }
 
+    /// The firmware's tick half, the very type the Teensy image runs in its
+    /// PIT interrupt.
+    pub fn controller(&self) -> &Controller<'static> {
+        &self.controller
+    }
+
+    /// The firmware's main-loop half.
+    pub fn host(&self) -> &Host<'static> {
+        &self.host
+    }
+
     /// The simulated arm.
     pub fn plant(&mut self) -> &mut Plant {
         &mut self.board.plant
