@@ -696,22 +696,22 @@ impl<S: Scalar> Monitor<S> {
                 self.stopping_ticks = 0;
             }
             self.stopping_ticks = self.stopping_ticks.saturating_add(1);
-            let n = f64::from(self.stop_ticks);
-            for (i, ((a, b), j)) in
-                out.act.velocity.iter().zip(self.prev_out.iter()).zip(cfg_joints(&self.cfg)).enumerate()
-            {
+            for (i, (a, b)) in out.act.velocity.iter().zip(self.prev_out.iter()).enumerate() {
                 let (a, b) = (*a, *b);
                 ensure!(a.abs() <= b.abs(), fail("SR-7", "soft-stop speed increased").on(i).got(f(a)).bound(f(b)));
                 ensure!(
                     a == S::ZERO || (a > S::ZERO) == (b > S::ZERO),
                     fail("SR-7", "soft stop reversed").on(i).got(f(a)).bound(f(b))
                 );
-                let step = (f(b) - f(a)).abs();
-                let bound = f64::from(j.max_velocity) / n;
-                ensure!(
-                    step <= bound * 1.001 + 1e-6,
-                    fail("SR-7", "soft stop decelerates more than vmax/N in a tick").on(i).got(step).bound(bound)
-                );
+            }
+            let n = f64::from(self.stop_ticks);
+            let over =
+                first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.001, |j| f64::from(j.max_velocity) / n);
+            if let Some((i, step, bound)) = over {
+                return Err(fail("SR-7", "soft stop decelerates more than vmax/N in a tick")
+                    .on(i)
+                    .got(step)
+                    .bound(bound));
             }
             if st == State::Stopping {
                 ensure!(
@@ -904,15 +904,11 @@ impl<S: Scalar> Monitor<S> {
         let hz = f64::from(self.cfg.tick_hz);
         // SR-18: in Operational the set-point moves at most vmax/tick_hz per tick.
         if st == State::Operational && prev == State::Operational {
-            for (i, ((a, b), j)) in
-                out.status.setpoint.iter().zip(self.prev_setpoint.iter()).zip(cfg_joints(&self.cfg)).enumerate()
-            {
-                let step = (f(*a) - f(*b)).abs();
-                let bound = f64::from(j.max_velocity) / hz;
-                ensure!(
-                    step <= bound * 1.001 + 1e-6,
-                    fail("SR-18", "set-point stepped more than vmax/tick_hz").on(i).got(step).bound(bound)
-                );
+            let over = first_step_over(&self.cfg, &out.status.setpoint, &self.prev_setpoint, 1.001, |j| {
+                f64::from(j.max_velocity) / hz
+            });
+            if let Some((i, step, bound)) = over {
+                return Err(fail("SR-18", "set-point stepped more than vmax/tick_hz").on(i).got(step).bound(bound));
             }
         }
 
@@ -936,15 +932,14 @@ impl<S: Scalar> Monitor<S> {
         // SR-25: in Operational the output changes by at most
         // max_acceleration / tick_hz per tick.
         if st == State::Operational {
-            for (i, ((a, b), j)) in
-                out.act.velocity.iter().zip(self.prev_out.iter()).zip(cfg_joints(&self.cfg)).enumerate()
-            {
-                let dv = (f(*a) - f(*b)).abs();
-                let bound = f64::from(j.max_acceleration) / hz;
-                ensure!(
-                    dv <= bound * 1.0001 + 1e-6,
-                    fail("SR-25", "output stepped more than max_acceleration/tick_hz").on(i).got(dv).bound(bound)
-                );
+            let over = first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.0001, |j| {
+                f64::from(j.max_acceleration) / hz
+            });
+            if let Some((i, dv, bound)) = over {
+                return Err(fail("SR-25", "output stepped more than max_acceleration/tick_hz")
+                    .on(i)
+                    .got(dv)
+                    .bound(bound));
             }
         }
         Ok(())
@@ -980,6 +975,27 @@ impl<S: Scalar> Monitor<S> {
         }
         Ok(())
     }
+}
+
+/// The first axis whose value moved between two ticks by more than its
+/// per-tick bound `limit(joint)` (times `rel`, plus 1e-6 of slack; a NaN
+/// step is over): (axis, step, bound).
+fn first_step_over<S: Scalar>(
+    cfg: &ArmConfig,
+    now: &[S; AXES],
+    before: &[S; AXES],
+    rel: f64,
+    limit: impl Fn(&kernel::config::JointConfig) -> f64,
+) -> Option<(usize, f64, f64)> {
+    for (i, ((a, b), j)) in now.iter().zip(before.iter()).zip(cfg_joints(cfg)).enumerate() {
+        let step = (f(*a) - f(*b)).abs();
+        let bound = limit(j);
+        let within = step <= bound * rel + 1e-6;
+        if !within {
+            return Some((i, step, bound));
+        }
+    }
+    None
 }
 
 fn cfg_joints(cfg: &ArmConfig) -> core::slice::Iter<'_, kernel::config::JointConfig> {
