@@ -526,12 +526,12 @@ impl<S: Variant> Sut<S> {
         }
     }
 
-    fn request(&self, r: &Req) -> (Request<S>, Sent<S>) {
+    fn request(&self, r: &Req) -> Request<S> {
         let conv = |a: [f64; AXES]| a.map(|x| S::from_f32(x as f32));
         match *r {
             Req::Motion(p, v) => {
                 let t = MotionTarget { position: conv(p), velocity: conv(v) };
-                (Request::Motion(t), Sent::Motion(Some(t)))
+                Request::Motion(t)
             }
             Req::BadMotion { base, axis, bad } => {
                 let mut t = MotionTarget { position: conv(base), velocity: [S::ZERO; AXES] };
@@ -546,11 +546,11 @@ impl<S: Variant> Sut<S> {
                     Bad::NanVelocity => t.velocity[axis] = S::non_finite(true, false),
                     Bad::VelocityTooHigh(f) => t.velocity[axis] = S::from_f32(j.max_velocity * (1.0 + f as f32)),
                 }
-                (Request::Motion(t), Sent::Motion(Some(t)))
+                Request::Motion(t)
             }
-            Req::Home => (Request::Home, Sent::Home),
-            Req::HomeJoint(j) => (Request::HomeJoint(j), Sent::HomeJoint(j)),
-            Req::Enable => (Request::Enable(self.auth.enable()), Sent::Enable),
+            Req::Home => Request::Home,
+            Req::HomeJoint(j) => Request::HomeJoint(j),
+            Req::Enable => Request::Enable(self.auth.enable()),
         }
     }
 
@@ -564,10 +564,8 @@ impl<S: Variant> Sut<S> {
             }
         }
         let sense = self.plant.sense();
-        let (request, sent) = match req.as_ref().map(|r| self.request(r)) {
-            Some((r, s)) => (Some(r), Some(s)),
-            None => (None, None),
-        };
+        let request = req.as_ref().map(|r| self.request(r));
+        let sent = request.as_ref().map(Sent::of);
         self.wit.before(&self.plant);
         let out = self.k.tick(&sense, request);
         let facts = self.wit.after(&self.plant, &out);
