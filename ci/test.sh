@@ -29,7 +29,7 @@ step "clippy (host, all targets, warnings are errors)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 
 step "clippy (thumbv7em-none-eabihf, warnings are errors)"
-cargo clippy -p kernel -p protocol -p hal-imxrt --target thumbv7em-none-eabihf --release --locked -- -D warnings
+cargo clippy -p kernel -p protocol -p hal-imxrt -p monitor --target thumbv7em-none-eabihf --release --locked -- -D warnings
 
 step "host tests (Kani harnesses run under the shim and report to $EVIDENCE_DIR/shim.tsv)"
 # Property tests: new random cases for every commit, reproducible for a given

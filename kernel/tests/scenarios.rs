@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{target, Rig};
+use common::{target, EncoderFault, Rig};
 use kernel::config::{AXES, PAROL6};
 use kernel::homing::Phase;
 use kernel::{Event, FaultReason, Fx, HomingStatus, Reject, Request, RequestKind, Scalar, State};
@@ -386,7 +386,7 @@ fn targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected<S: Scala
 /// fault naming that encoder (kept by `fault()`).
 fn boot_timeout_names_the_unready_encoder_on_time<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
-    r.plant.encoder_lost[4] = true;
+    r.plant.encoder[4] = EncoderFault::Lost;
     let n = kernel::config::ms_to_ticks(PAROL6.boot_timeout_ms, PAROL6.tick_hz);
     for t in 0..n {
         let out = r.tick(None);
@@ -408,7 +408,7 @@ fn counts_out_of_range_are_lost_samples<S: Scalar>() {
     for k in 0..=limit {
         let mut sense = r.plant.sense();
         sense.encoders[1] = kernel::EncoderSample::Count(4096);
-        let o = r.k.tick(&sense, None);
+        let o = r.tick_with(sense, None);
         let want = if k < limit { State::Operational } else { State::Fault };
         assert_eq!(o.status.state, want, "sample {k}");
         out = Some(o);
@@ -427,7 +427,7 @@ fn a_fault_during_homing_leaves_the_aborted_axes_unhomed<S: Scalar>() {
     r.run(20);
     let mut sense = r.plant.sense();
     sense.hardware_fault = Some(kernel::HardwareFault::TickOverrun);
-    let out = r.k.tick(&sense, None);
+    let out = r.tick_with(sense, None);
     assert_eq!(out.status.state, State::Fault);
     assert_eq!(out.status.homing, HomingStatus::Failed);
     assert_eq!(out.status.homed, 0b11_1110, "J1's aborted run is not homed");
@@ -581,7 +581,7 @@ fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
     // Up to `limit` lost samples in a row are ridden through (the observer
     // coasts); one more is a fault that zeroes every axis.
     let mut r = homed::<S>();
-    r.plant.encoder_lost[2] = true;
+    r.plant.encoder[2] = EncoderFault::Lost;
     for _ in 0..limit {
         assert_eq!(r.tick(None).status.state, State::Operational);
     }
@@ -593,7 +593,7 @@ fn encoder_loss_and_jump_fault_and_require_rehoming<S: Scalar>() {
     assert_eq!(out.status.homing, HomingStatus::NotRequested);
     let out = r.enable();
     assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::CauseActive(_), .. })));
-    r.plant.encoder_lost[2] = false;
+    r.plant.encoder[2] = EncoderFault::None;
     let out = r.enable();
     // J3's count was lost: it must be homed again; the others keep theirs.
     assert_eq!(out.status.state, State::Unhomed);
@@ -631,12 +631,12 @@ fn encoder_lost_while_fast_does_not_block_enable_forever<S: Scalar>() {
     assert_eq!(out.status.state, State::Unhomed);
     assert!(f64::from(out.status.velocity[j].to_f32()) > vmax, "estimate follows the outside force");
     // Its encoder is lost for longer than the kernel rides through.
-    r.plant.encoder_lost[j] = true;
+    r.plant.encoder[j] = EncoderFault::Lost;
     let out = r.run(PAROL6.encoder_invalid_limit + 1);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::EncoderLost { axis: j as u8 });
     // The arm stops and the encoder comes back.
     r.plant.disturbance[j] = 0.0;
-    r.plant.encoder_lost[j] = false;
+    r.plant.encoder[j] = EncoderFault::None;
     r.run(50);
     let out = r.enable();
     assert_eq!(out.status.state, State::Unhomed, "events: {:?}", out.events);
@@ -662,12 +662,12 @@ fn enable_is_refused_when_a_fault_is_detected_in_the_same_tick<S: Scalar>() {
 /// The ROS 2 driver sends `<HOME>` once, possibly while the kernel boots.
 fn home_during_boot_is_queued<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
-    r.plant.encoder_lost[4] = true; // J5 not readable yet: still booting
+    r.plant.encoder[4] = EncoderFault::Lost; // J5 not readable yet: still booting
     let out = r.tick(Some(Request::Home));
     assert_eq!(out.status.state, State::Boot);
     assert!(out.events.iter().any(|e| *e == Event::HomingQueued));
     assert_eq!(out.status.homing, HomingStatus::InProgress);
-    r.plant.encoder_lost[4] = false;
+    r.plant.encoder[4] = EncoderFault::None;
     let out = r.tick(None);
     assert_eq!(out.status.state, State::Homing);
     r.run_until(60_000, |o| o.status.state != State::Homing).unwrap();
@@ -697,7 +697,7 @@ fn fault_keeps_its_first_reason<S: Scalar>() {
     let mut r = homed::<S>();
     r.plant.force_switch = 0b1;
     r.tick(None);
-    r.plant.encoder_lost[5] = true;
+    r.plant.encoder[5] = EncoderFault::Lost;
     r.plant.force_switch = 0b11_1111;
     let out = r.run(10);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::LimitSwitch { axis: 0 });
@@ -805,7 +805,7 @@ fn hardware_overrun_faults<S: Scalar>() {
     let mut r = homed::<S>();
     let mut sense = r.plant.sense();
     sense.hardware_fault = Some(kernel::HardwareFault::TickOverrun);
-    let out = r.k.tick(&sense, None);
+    let out = r.tick_with(sense, None);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::Hardware(kernel::HardwareFault::TickOverrun));
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
 }

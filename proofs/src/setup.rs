@@ -6,10 +6,17 @@
 //! [`PROOF_CONFIG`], which is `PAROL6` with a zero back-off distance and
 //! short timeouts (a harness cannot run the real configuration's thousands
 //! of ticks). Only those values differ; every code path is the kernel's own.
+//!
+//! Every tick a harness runs, setup included, goes through [`Checked`]:
+//! the one safety monitor (`monitor::Monitor`, written from SAFETY.md, with
+//! its own copy of the seed's homing order) checks it, so each harness
+//! asserts every per-tick requirement (SR-1, 2, 4..11, 13, 15..19, 25) on
+//! every tick besides its own property.
 
 use kernel::config::{ArmConfig, AXES, PAROL6};
 use kernel::homing::Phase;
-use kernel::{Authority, EncoderSample, Kernel, MotionTarget, Request, Scalar, Sense, State};
+use kernel::{Authority, EncoderSample, Kernel, MotionTarget, Request, Scalar, Sense, State, TickOutput};
+use monitor::{Monitor, Sent};
 
 /// `PAROL6` with zero homing back-off, and timeouts short enough for a
 /// harness: command timeout 3 ms, soft-stop ramp 4 ms, homing 40 ms per axis.
@@ -27,10 +34,9 @@ pub const PROOF_CONFIG: ArmConfig = {
 };
 
 /// The seed's homing order (FIRMWARE_DEVELOPER_GUIDE.md section 6: J6; then
-/// J5 and J4; then J1, J2, J3), written out here independently of the
-/// kernel's tables so that a harness cannot inherit a mistake from them: the
-/// joints (bit i = J(i+1)) that must be homed before joint i may move.
-pub const SEED_DEPENDENCIES: [u8; AXES] = [0b11_1000, 0b11_1000, 0b11_1000, 0b10_0000, 0b10_0000, 0b00_0000];
+/// J5 and J4; then J1, J2, J3), written out in the monitor independently of
+/// the kernel's tables so that a harness cannot inherit a mistake from them.
+pub use monitor::SEED_DEPENDENCIES;
 
 /// Counts the stationary encoders read (mid-range, away from the wrap).
 pub const COUNTS: [u16; AXES] = [1000, 2000, 3000, 500, 1500, 2500];
@@ -58,16 +64,50 @@ impl Sym for kernel::Fx {
     }
 }
 
+/// A kernel whose every tick is checked by the monitor (an assertion: a
+/// violation fails the harness). It dereferences to the kernel for its
+/// read-only API.
+#[derive(Clone, Debug)]
+pub struct Checked<S: Scalar> {
+    k: Kernel<S>,
+    mon: Monitor<S>,
+}
+
+impl<S: Scalar> Checked<S> {
+    /// A fresh kernel with [`PROOF_CONFIG`] (state Boot), its monitor and
+    /// its authority.
+    pub fn new() -> (Self, Authority) {
+        let (k, a) = Kernel::new(&PROOF_CONFIG);
+        (Checked { k, mon: Monitor::new(&PROOF_CONFIG) }, a)
+    }
+
+    /// One kernel tick, checked by the monitor.
+    pub fn tick(&mut self, sense: &Sense, request: Option<Request<S>>) -> TickOutput<S> {
+        let sent = request.as_ref().map(Sent::of);
+        let o = self.k.tick(sense, request);
+        let r = self.mon.check(sense, sent.as_ref(), &o, Some(&self.k.homing_phases()), None);
+        assert!(r.is_ok(), "safety monitor: {r:?}");
+        o
+    }
+}
+
+impl<S: Scalar> core::ops::Deref for Checked<S> {
+    type Target = Kernel<S>;
+    fn deref(&self) -> &Kernel<S> {
+        &self.k
+    }
+}
+
 /// A booted kernel (state Unhomed) and its authority.
-pub fn unhomed<S: Scalar>() -> (Kernel<S>, Authority) {
-    let (mut k, a) = Kernel::new(&PROOF_CONFIG);
+pub fn unhomed<S: Scalar>() -> (Checked<S>, Authority) {
+    let (mut k, a) = Checked::new();
     k.tick(&still(0), None);
     (k, a)
 }
 
 /// Runs homing to completion by pressing the switch of every seeking axis.
 /// At most 40 ticks (three groups of at most 7 ticks each, plus margin).
-pub fn run_homing<S: Scalar>(k: &mut Kernel<S>) {
+pub fn run_homing<S: Scalar>(k: &mut Checked<S>) {
     for _ in 0..40 {
         if k.state() != State::Homing {
             return;
@@ -83,7 +123,7 @@ pub fn run_homing<S: Scalar>(k: &mut Kernel<S>) {
 }
 
 /// A homed, operational kernel with the timeout not yet armed.
-pub fn operational<S: Scalar>() -> (Kernel<S>, Authority) {
+pub fn operational<S: Scalar>() -> (Checked<S>, Authority) {
     let (mut k, a) = unhomed::<S>();
     k.tick(&still(0), Some(Request::Home));
     run_homing(&mut k);
@@ -91,7 +131,7 @@ pub fn operational<S: Scalar>() -> (Kernel<S>, Authority) {
 }
 
 /// The measured positions of an operational kernel (a valid target).
-pub fn here<S: Scalar>(k: &mut Kernel<S>) -> [S; AXES] {
+pub fn here<S: Scalar>(k: &mut Checked<S>) -> [S; AXES] {
     k.tick(&still(0), None).status.position
 }
 

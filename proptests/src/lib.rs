@@ -1,7 +1,9 @@
 //! Property tests of the whole PAROL6 safety kernel.
 //!
-//! * [`plant`]: a simple arm (steppers, encoders, switches) with fault injection;
-//! * [`monitor`]: the per-tick safety monitor (SR-1..SR-19, SR-25);
+//! * [`plant`]: the one test plant (steppers, encoders, switches) with fault
+//!   injection, re-exported from the `monitor` crate;
+//! * [`monitor`]: the one per-tick safety monitor (SR-1..SR-19, SR-25), the
+//!   `monitor` crate, re-exported;
 //! * [`scenario`]: random operating sequences and the drivers that play them
 //!   against one kernel, or against the f32 and fixed-point kernels in lockstep.
 //!
@@ -10,8 +12,7 @@
 //! `workflow_yaml.rs` (structure of the CI workflow). Failures are persisted
 //! under `proptest-regressions/` and replayed first on every run.
 
-pub mod monitor;
-pub mod plant;
+pub use monitor::{self, plant};
 pub mod scenario;
 
 use proptest::test_runner::{Config, FileFailurePersistence};

@@ -9,13 +9,13 @@ use kernel::config::{AXES, PAROL6};
 use kernel::{Authority, Fx, HardwareFault, Kernel, MotionTarget, Request, Scalar, Sense, State, TickOutput};
 use proptest::prelude::*;
 
-use crate::monitor::{Monitor, PlantFacts, Sent, Stats};
-use crate::plant::{EncoderFault, Plant};
+use monitor::plant::{EncoderFault, Plant, Witness, DEFAULT_OFFSETS};
+use monitor::{Monitor, Sent, Stats};
 
 /// The pose the homed snapshots were homed from (also the scenario tests' start).
 pub const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 /// The scenario tests' encoder offsets.
-pub const OFFSETS: [f64; AXES] = [0.7, 2.1, 3.3, 5.9, 1.1, 4.4];
+pub const OFFSETS: [f64; AXES] = DEFAULT_OFFSETS;
 /// Bound on the ticks a `WaitHoming` step waits (every axis's homing timeout
 /// is at most 12 s, three groups in sequence).
 pub const HOMING_WAIT_MAX: u32 = 40_000;
@@ -475,12 +475,8 @@ pub struct Sut<S: Variant> {
     pub mon: Monitor<S>,
     /// Ticks run.
     pub ticks: u64,
-    last_injection: Option<u64>,
-    homing_started: Option<u64>,
-    /// Plant angles at the previous tick, and consecutive ticks with the arm
-    /// at rest and nothing injected.
-    rest_q: [f64; AXES],
-    quiet: u32,
+    /// What was injected into the plant and when (the monitor's plant facts).
+    wit: Witness,
     boot_lost_until: Option<(usize, u64)>,
     recent: VecDeque<(u64, Sense, Option<Req>, TickOutput<S>)>,
     /// The last tick's output.
@@ -496,10 +492,7 @@ impl<S: Variant> Sut<S> {
             plant,
             mon,
             ticks,
-            last_injection: None,
-            homing_started: None,
-            rest_q: [f64::NAN; AXES],
-            quiet: 0,
+            wit: Witness::new(),
             boot_lost_until: None,
             recent: VecDeque::new(),
             last: None,
@@ -520,7 +513,6 @@ impl<S: Variant> Sut<S> {
                 if let Some((axis, ticks)) = *boot_lost {
                     s.plant.encoder[axis] = EncoderFault::Lost;
                     s.boot_lost_until = Some((axis, ticks));
-                    s.last_injection = Some(0);
                 }
                 s
             }
@@ -534,12 +526,12 @@ impl<S: Variant> Sut<S> {
         }
     }
 
-    fn request(&self, r: &Req) -> (Request<S>, Sent<S>) {
+    fn request(&self, r: &Req) -> Request<S> {
         let conv = |a: [f64; AXES]| a.map(|x| S::from_f32(x as f32));
         match *r {
             Req::Motion(p, v) => {
                 let t = MotionTarget { position: conv(p), velocity: conv(v) };
-                (Request::Motion(t), Sent::Motion(t))
+                Request::Motion(t)
             }
             Req::BadMotion { base, axis, bad } => {
                 let mut t = MotionTarget { position: conv(base), velocity: [S::ZERO; AXES] };
@@ -554,11 +546,11 @@ impl<S: Variant> Sut<S> {
                     Bad::NanVelocity => t.velocity[axis] = S::non_finite(true, false),
                     Bad::VelocityTooHigh(f) => t.velocity[axis] = S::from_f32(j.max_velocity * (1.0 + f as f32)),
                 }
-                (Request::Motion(t), Sent::Motion(t))
+                Request::Motion(t)
             }
-            Req::Home => (Request::Home, Sent::Home),
-            Req::HomeJoint(j) => (Request::HomeJoint(j), Sent::HomeJoint(j)),
-            Req::Enable => (Request::Enable(self.auth.enable()), Sent::Enable),
+            Req::Home => Request::Home,
+            Req::HomeJoint(j) => Request::HomeJoint(j),
+            Req::Enable => Request::Enable(self.auth.enable()),
         }
     }
 
@@ -572,36 +564,16 @@ impl<S: Variant> Sut<S> {
             }
         }
         let sense = self.plant.sense();
-        let (request, sent) = match req.as_ref().map(|r| self.request(r)) {
-            Some((r, s)) => (Some(r), Some(s)),
-            None => (None, None),
-        };
-        if !self.plant.is_clean() {
-            self.last_injection = Some(self.ticks);
-        }
-        let moved = self.plant.q != self.rest_q;
-        self.rest_q = self.plant.q;
-        let injected_now = self.last_injection.is_some_and(|i| i >= self.ticks);
-        self.quiet = if moved || injected_now { 0 } else { self.quiet.saturating_add(1) };
+        let request = req.as_ref().map(|r| self.request(r));
+        let sent = request.as_ref().map(Sent::of);
+        self.wit.before(&self.plant);
         let out = self.k.tick(&sense, request);
-        if out.events.iter().any(|e| matches!(e, kernel::Event::HomingStarted { .. })) {
-            self.homing_started = Some(self.ticks);
-        }
-        let facts = PlantFacts {
-            q: self.plant.q,
-            clean_since_start: self.last_injection.is_none(),
-            quiet_ticks: self.quiet,
-            clean_homing: match (self.homing_started, self.last_injection) {
-                (Some(h), Some(i)) => i < h,
-                (_, None) => true,
-                (None, Some(_)) => false,
-            },
-        };
+        let facts = self.wit.after(&self.plant, &out);
         if self.recent.len() == 6 {
             self.recent.pop_front();
         }
         self.recent.push_back((self.ticks, sense, req, out));
-        if let Err(e) = self.mon.check(&sense, sent.as_ref(), &out, self.k.homing_phases(), &facts) {
+        if let Err(e) = self.mon.check(&sense, sent.as_ref(), &out, Some(&self.k.homing_phases()), Some(&facts)) {
             let mut msg = format!("[{}] tick {}: {e}\n  recent ticks:\n", S::NAME, self.ticks);
             for (t, s, r, o) in &self.recent {
                 msg += &format!("   #{t} sense {s:?}\n      req {r:?}\n      out {o:?}\n");
@@ -612,11 +584,6 @@ impl<S: Variant> Sut<S> {
         self.last = Some(out);
         out
     }
-
-    /// Marks an environment change (slips are injections too).
-    fn injected(&mut self) {
-        self.last_injection = Some(self.ticks + 1);
-    }
 }
 
 impl<S: Variant> Driver for Sut<S> {
@@ -624,11 +591,9 @@ impl<S: Variant> Driver for Sut<S> {
         self.plant.q
     }
     fn env(&mut self, f: &dyn Fn(&mut Plant)) {
-        let before = self.plant.enc_offset;
+        // Injections, slips (encoder offset changes) included, are seen by
+        // the witness at the next tick.
         f(&mut self.plant);
-        if self.plant.enc_offset != before {
-            self.injected();
-        }
     }
     fn tick(&mut self, req: Option<Req>) {
         Sut::tick(self, req);
@@ -711,7 +676,7 @@ impl Driver for Pair {
             oa, ob, oa.events, ob.events
         );
         assert_eq!(oa.status.homed, ob.status.homed, "differential: homed differs at tick {t}");
-        let kind = |o: &Option<kernel::Fault>| o.map(|f| crate::monitor::fault_kind(&f.reason));
+        let kind = |o: &Option<kernel::Fault>| o.map(|f| monitor::fault_kind(&f.reason));
         assert_eq!(kind(&oa.status.fault), kind(&ob.status.fault), "differential: fault kinds differ at tick {t}");
         let differ = self.a.k.homing_phases() != self.b.k.homing_phases();
         // The tick after realigning too: the later kernel's first tick in

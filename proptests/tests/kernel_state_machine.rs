@@ -2,7 +2,7 @@
 //! long random sequences of motion commands (valid, out of limits, NaN),
 //! dropouts, encoder losses and glitches, limit hits, outside forces,
 //! hardware faults, enables and homes, against the plant, with every safety
-//! requirement that applies checked at every tick by `proptests::monitor`.
+//! requirement that applies checked at every tick by the `monitor` crate (re-exported as `proptests::monitor`).
 //!
 //! Cases: `PROPTEST_CASES` (default below). Failures are persisted in
 //! `proptest-regressions/kernel_state_machine_{f32,fx}.txt` and replayed first.

@@ -1,0 +1,1006 @@
+//! The one per-tick safety monitor of the PAROL6 kernel.
+//!
+//! [`Monitor::check`] judges one kernel tick (the [`Sense`] handed in, the
+//! request handed in as a [`Sent`], and the [`TickOutput`]) against every
+//! requirement of `SAFETY.md` that can be judged from a tick's inputs and
+//! outputs plus a little history, which the monitor carries between ticks
+//! (previous output, set-point and state, the latched fault, the ticks since
+//! the last accepted command, the soft-stop ramp's length, encoder-loss
+//! streaks, joints that must be homed again). It works for both numeric
+//! variants through [`kernel::Scalar`].
+//!
+//! The monitor is an *independent* oracle: its limits come from the
+//! requirements' text and the configuration values ([`ArmConfig`]), never
+//! from the kernel's derived tables. In particular the homing order is
+//! written down here ([`SEED_DEPENDENCIES`]: J6; then J5, J4; then J1, J2,
+//! J3) rather than read from `kernel::config::HOMING_GROUPS` or
+//! `Kernel::dependencies`, so a change to the kernel's order is caught, not
+//! mirrored.
+//!
+//! Checks and the requirement each covers (the `sr` of a [`Violation`]):
+//!
+//! | SR | check |
+//! |---|---|
+//! | SR-1 | zero output in Boot and Unhomed; `Ready` only from Boot; with [`PlantFacts::clean_since_start`], each estimate starts at rest at the encoder's reading |
+//! | SR-2 | every output finite and within the joint's max velocity; step rate within the step generator's limit and the joint's speed, with the velocity's sign |
+//! | SR-4 | zero output on every axis in the tick a fault is raised |
+//! | SR-5 | Fault state iff a fault is latched; at most one fault event per tick; the first reason kept; Fault and SoftEstop left only by an accepted enable (or home from SoftEstop) |
+//! | SR-6 | enable refused while a cause is in the sensors or outside Fault/SoftEstop; after enable set-points equal positions, timeout disarmed, no speed above vmax, no fault in the same tick; with [`PlantFacts::quiet_ticks`], a refusal's cause is real |
+//! | SR-7 | the soft stop starts exactly at the timeout; the ramp never speeds up or reverses, steps at most vmax/N, ends in exactly N ticks at zero with `Stopped`, and latches |
+//! | SR-8 | the timeout is armed only by an accepted motion command and disarmed by homing and enable |
+//! | SR-9 | an estimate above the runaway threshold is a fault |
+//! | SR-10 | a pressed switch in Operational, Stopping or SoftEstop, or on a homed axis at rest during homing, is a fault |
+//! | SR-11 | more than `encoder_invalid_limit` invalid samples in a row fault, and that joint is not homed until homed again |
+//! | SR-13 | in homing no axis moves before every axis of the earlier groups is homed and still; per-joint homing accepted only with its dependencies homed |
+//! | SR-14 | with [`PlantFacts::clean_homing`], a finished homing run zeroes each axis at its true angle |
+//! | SR-15 | motion accepted only in Operational; every refusal reported against the request that was sent; no event lost |
+//! | SR-16 | in homing an axis moves only in a moving phase; no moving phase outside Homing |
+//! | SR-17 | accepted targets valid; a clearly valid target in Operational accepted |
+//! | SR-18 | in Operational the set-point moves at most vmax/tick_hz per tick |
+//! | SR-19 | in Operational and Stopping every axis is homed and within its limits plus margin |
+//! | SR-25 | in Operational the output changes by at most max_acceleration/tick_hz per tick |
+//!
+//! A std caller with a `TickOutput<f32>` per tick:
+//!
+//! ```
+//! use kernel::{config::PAROL6, EncoderSample, KernelF32, Request, Sense};
+//! use monitor::{Monitor, Sent};
+//! let (mut k, _auth) = KernelF32::new(&PAROL6);
+//! let mut mon = Monitor::<f32>::new(&PAROL6);
+//! let sense = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None };
+//! let req: Option<Request<f32>> = Some(Request::Home);
+//! let sent = req.as_ref().map(Sent::of); // before the kernel takes the request
+//! let out = k.tick(&sense, req);
+//! if let Err(v) = mon.check(&sense, sent.as_ref(), &out, Some(&k.homing_phases()), None) {
+//!     panic!("{v}"); // e.g. "SR-7 J3: soft-stop speed increased: got 0.5, bound 0.4 (tick 812, Stopping)"
+//! }
+//! ```
+#![cfg_attr(not(any(test, feature = "plant")), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic,
+        clippy::arithmetic_side_effects
+    )
+)]
+
+#[cfg(any(test, feature = "plant"))]
+pub mod plant;
+
+use core::fmt;
+
+use kernel::config::{ms_to_ticks, ArmConfig, AXES, COUNTS_PER_REV};
+use kernel::homing::Phase;
+use kernel::{
+    EncoderSample, Event, Fault, FaultReason, MotionTarget, Reject, Request, RequestKind, Scalar, Sense, State,
+    TickOutput,
+};
+
+/// Ticks of rest with nothing injected after which the estimates have
+/// settled (the observer's time constant is about 1/alpha = 10 ticks).
+pub const QUIET_TICKS: u32 = 300;
+
+/// SR-13, the seed's homing order (J6; then J5, J4; then J1, J2, J3), written
+/// out here from the requirement, independently of the kernel's tables: the
+/// joints (bit i = J(i+1)) that must be homed before joint i may move.
+pub const SEED_DEPENDENCIES: [u8; AXES] = [0b11_1000, 0b11_1000, 0b11_1000, 0b10_0000, 0b10_0000, 0];
+
+/// Every joint's bit.
+const ALL: u8 = 0b11_1111;
+
+/// Bit of axis `i` in a joint mask (0 for an index beyond the mask).
+const fn bit(i: usize) -> u8 {
+    match 1u8.checked_shl(i as u32) {
+        Some(b) => b,
+        None => 0,
+    }
+}
+
+/// A sample the kernel accepts as a reading: a count of the 12-bit encoder.
+pub fn is_count(e: &EncoderSample) -> bool {
+    matches!(*e, EncoderSample::Count(c) if i32::from(c) < COUNTS_PER_REV)
+}
+
+/// A request as the monitor sees it: what was handed to the kernel this
+/// tick (the enable capability itself is not `Copy`, so it is not kept).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Sent<S> {
+    /// `Request::Motion`, with its target when the caller has it (the
+    /// SR-17 validity checks need it; without it they are skipped).
+    Motion(Option<MotionTarget<S>>),
+    /// `Request::Home`.
+    Home,
+    /// `Request::HomeJoint`.
+    HomeJoint(u8),
+    /// `Request::Enable`.
+    Enable,
+}
+
+impl<S: Copy> Sent<S> {
+    /// The monitor's view of `r` (take it before the kernel consumes `r`).
+    pub fn of(r: &Request<S>) -> Self {
+        match r {
+            Request::Motion(t) => Sent::Motion(Some(*t)),
+            Request::Home => Sent::Home,
+            Request::HomeJoint(j) => Sent::HomeJoint(*j),
+            Request::Enable(_) => Sent::Enable,
+        }
+    }
+
+    /// From the request kind only (a motion target's validity is then not judged).
+    pub fn from_kind(k: RequestKind) -> Self {
+        match k {
+            RequestKind::Motion => Sent::Motion(None),
+            RequestKind::Home => Sent::Home,
+            RequestKind::HomeJoint(j) => Sent::HomeJoint(j),
+            RequestKind::Enable => Sent::Enable,
+        }
+    }
+
+    /// The kind of this request.
+    pub fn kind(&self) -> RequestKind {
+        match self {
+            Sent::Motion(_) => RequestKind::Motion,
+            Sent::Home => RequestKind::Home,
+            Sent::HomeJoint(j) => RequestKind::HomeJoint(*j),
+            Sent::Enable => RequestKind::Enable,
+        }
+    }
+}
+
+/// Facts about the arm that only a test plant knows; the checks that need
+/// them (SR-1's initial estimate, SR-6's liveness, SR-14's zero) run only
+/// when the caller passes them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantFacts {
+    /// True joint angles after this tick's sensing (before applying outputs).
+    pub q: [f64; AXES],
+    /// Nothing has been injected since power-on (SR-1's check of the
+    /// observer's initial value needs undisturbed readings).
+    pub clean_since_start: bool,
+    /// Consecutive ticks (up to this one) with the arm at rest and nothing
+    /// injected: no outside force, glitch, loss, slip, switch or hardware
+    /// fault.
+    pub quiet_ticks: u32,
+    /// Nothing was injected during the current homing run (SR-14's check of
+    /// the captured zero needs a real switch edge).
+    pub clean_homing: bool,
+}
+
+/// A violated requirement: which one, on which axis, what, and the numbers.
+/// `Display` formats it on one line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Violation {
+    /// The requirement, e.g. `"SR-7"`.
+    pub sr: &'static str,
+    /// The axis (0..=5), if the check is per axis.
+    pub axis: Option<u8>,
+    /// What was wrong.
+    pub what: &'static str,
+    /// The offending value, where there is one.
+    pub got: Option<f64>,
+    /// The bound it broke, where there is one.
+    pub bound: Option<f64>,
+    /// The kernel's tick count (`status.tick`).
+    pub tick: u32,
+    /// The kernel's state after the tick.
+    pub state: State,
+}
+
+impl Violation {
+    fn on(mut self, axis: usize) -> Self {
+        self.axis = u8::try_from(axis).ok();
+        self
+    }
+    fn got(mut self, x: f64) -> Self {
+        self.got = Some(x);
+        self
+    }
+    fn bound(mut self, x: f64) -> Self {
+        self.bound = Some(x);
+        self
+    }
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.sr)?;
+        if let Some(a) = self.axis {
+            write!(f, " J{}", u16::from(a).saturating_add(1))?;
+        }
+        write!(f, ": {}", self.what)?;
+        if let Some(g) = self.got {
+            write!(f, ": got {g}")?;
+        }
+        if let Some(b) = self.bound {
+            write!(f, ", bound {b}")?;
+        }
+        write!(f, " (tick {}, {:?})", self.tick, self.state)
+    }
+}
+
+/// What the monitor saw over a run (for coverage reports).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Ticks checked.
+    pub ticks: u64,
+    /// Ticks per state, in `State` declaration order.
+    pub state_ticks: [u64; 7],
+    /// Motion targets accepted.
+    pub accepted: u64,
+    /// Requests rejected.
+    pub rejected: u64,
+    /// Faults latched, by reason kind (see [`fault_kind`]).
+    pub faults: [u64; 9],
+    /// Enables accepted.
+    pub enabled: u64,
+    /// Enables refused because a cause was present.
+    pub enable_refused: u64,
+    /// Soft E-stops started.
+    pub soft_stops: u64,
+    /// Soft E-stop ramps completed.
+    pub stopped: u64,
+    /// Homing runs completed (`HomingDone`).
+    pub homing_done: u64,
+    /// Ticks in Operational with a non-zero output.
+    pub moving_ticks: u64,
+    /// Enables sent in Fault or SoftEstop after the arm had rested with
+    /// nothing injected for `QUIET_TICKS` (SR-6's liveness check applies).
+    pub quiet_enables: u64,
+}
+
+fn inc(x: &mut u64) {
+    *x = x.saturating_add(1);
+}
+
+impl Stats {
+    /// Adds `o` into `self`.
+    pub fn merge(&mut self, o: &Stats) {
+        let add = |a: &mut u64, b: u64| *a = a.saturating_add(b);
+        add(&mut self.ticks, o.ticks);
+        for (a, b) in self.state_ticks.iter_mut().zip(o.state_ticks.iter()) {
+            add(a, *b);
+        }
+        for (a, b) in self.faults.iter_mut().zip(o.faults.iter()) {
+            add(a, *b);
+        }
+        add(&mut self.accepted, o.accepted);
+        add(&mut self.rejected, o.rejected);
+        add(&mut self.enabled, o.enabled);
+        add(&mut self.enable_refused, o.enable_refused);
+        add(&mut self.soft_stops, o.soft_stops);
+        add(&mut self.stopped, o.stopped);
+        add(&mut self.homing_done, o.homing_done);
+        add(&mut self.moving_ticks, o.moving_ticks);
+        add(&mut self.quiet_enables, o.quiet_enables);
+    }
+}
+
+/// Names of the fault kinds counted in [`Stats::faults`].
+pub const FAULT_KINDS: [&str; 9] = [
+    "EncoderLost",
+    "EncoderJump",
+    "EncoderNotReady",
+    "Runaway",
+    "LimitSwitch",
+    "PositionLimit",
+    "Numeric",
+    "HomingTimeout",
+    "Hardware",
+];
+
+/// Index of a fault reason in [`FAULT_KINDS`].
+pub fn fault_kind(r: &FaultReason) -> usize {
+    match r {
+        FaultReason::EncoderLost { .. } => 0,
+        FaultReason::EncoderJump { .. } => 1,
+        FaultReason::EncoderNotReady { .. } => 2,
+        FaultReason::Runaway { .. } => 3,
+        FaultReason::LimitSwitch { .. } => 4,
+        FaultReason::PositionLimit { .. } => 5,
+        FaultReason::Numeric { .. } => 6,
+        FaultReason::HomingTimeout { .. } => 7,
+        FaultReason::Hardware(_) => 8,
+    }
+}
+
+fn state_index(s: State) -> usize {
+    match s {
+        State::Boot => 0,
+        State::Unhomed => 1,
+        State::Homing => 2,
+        State::Operational => 3,
+        State::Stopping => 4,
+        State::SoftEstop => 5,
+        State::Fault => 6,
+    }
+}
+
+/// The monitor's own verdict on a motion target (SR-17).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validity {
+    /// Finite, inside every limit with room to spare: must be accepted.
+    Valid,
+    /// Within a rounding distance of a limit: either answer is fine.
+    Edge,
+    /// Non-finite or clearly outside a limit: must be rejected.
+    Invalid,
+}
+
+/// Classifies `t` against the configuration's limits (SR-17).
+pub fn validity<S: Scalar>(cfg: &ArmConfig, t: &MotionTarget<S>) -> Validity {
+    const EPS: f64 = 1e-5;
+    let mut edge = false;
+    for ((j, p), v) in cfg.joints.iter().zip(t.position.iter()).zip(t.velocity.iter()) {
+        if !(p.is_finite() && v.is_finite()) {
+            return Validity::Invalid;
+        }
+        let (p, v) = (f64::from(p.to_f32()), f64::from(v.to_f32()).abs());
+        let (lo, hi, vmax) = (f64::from(j.limit_min), f64::from(j.limit_max), f64::from(j.max_velocity));
+        if p < lo - EPS || p > hi + EPS || v > vmax + EPS {
+            return Validity::Invalid;
+        }
+        if p < lo + EPS || p > hi - EPS || v > vmax - EPS {
+            edge = true;
+        }
+    }
+    if edge {
+        Validity::Edge
+    } else {
+        Validity::Valid
+    }
+}
+
+fn f(x: impl Scalar) -> f64 {
+    f64::from(x.to_f32())
+}
+
+/// The monitor's memory between ticks. Create it together with the kernel
+/// ([`Monitor::new`]) and hand it every tick, in order.
+#[derive(Clone, Debug)]
+pub struct Monitor<S> {
+    cfg: ArmConfig,
+    timeout_ticks: u32,
+    stop_ticks: u32,
+    prev_out: [S; AXES],
+    prev_state: State,
+    prev_armed: bool,
+    prev_setpoint: [S; AXES],
+    prev_homed: u8,
+    latched: Option<Fault>,
+    stopping_ticks: u32,
+    since_accept: Option<u32>,
+    lost_streak: [u32; AXES],
+    must_rehome: u8,
+    /// Coverage counters.
+    pub stats: Stats,
+}
+
+type Checked = Result<(), Violation>;
+
+impl<S: Scalar> Monitor<S> {
+    /// A monitor for a kernel that has just been created with `cfg` (no
+    /// tick run yet).
+    pub fn new(cfg: &ArmConfig) -> Self {
+        let stop = ms_to_ticks(cfg.soft_stop_ms, cfg.tick_hz);
+        Monitor {
+            cfg: *cfg,
+            timeout_ticks: ms_to_ticks(cfg.command_timeout_ms, cfg.tick_hz),
+            stop_ticks: if stop == 0 { 1 } else { stop },
+            prev_out: [S::ZERO; AXES],
+            prev_state: State::Boot,
+            prev_armed: false,
+            prev_setpoint: [S::ZERO; AXES],
+            prev_homed: 0,
+            latched: None,
+            stopping_ticks: 0,
+            since_accept: None,
+            lost_streak: [0; AXES],
+            must_rehome: 0,
+            stats: Stats::default(),
+        }
+    }
+
+    /// Checks one tick: `sense` and `sent` as handed to the kernel, `out` as
+    /// returned; `phases` are the kernel's homing phases after the tick
+    /// (`Kernel::homing_phases`; without them the phase checks of SR-10,
+    /// SR-13 and SR-16 are skipped), `plant` the test plant's facts (see
+    /// [`PlantFacts`]). Returns the first violated requirement. Call it for
+    /// every tick, also after a violation.
+    pub fn check(
+        &mut self,
+        sense: &Sense,
+        sent: Option<&Sent<S>>,
+        out: &TickOutput<S>,
+        phases: Option<&[Phase; AXES]>,
+        plant: Option<&PlantFacts>,
+    ) -> Checked {
+        let r = self.check_inner(sense, sent, out, phases, plant);
+        // Memory for the next tick.
+        self.prev_out = out.act.velocity;
+        self.prev_state = out.status.state;
+        self.prev_armed = out.status.timeout_armed;
+        self.prev_setpoint = out.status.setpoint;
+        self.prev_homed = out.status.homed;
+        r
+    }
+
+    fn count(&mut self, out: &TickOutput<S>) {
+        let st = out.status.state;
+        inc(&mut self.stats.ticks);
+        if let Some(n) = self.stats.state_ticks.get_mut(state_index(st)) {
+            inc(n);
+        }
+        for e in out.events.iter() {
+            match e {
+                Event::Rejected { reason: Reject::CauseActive(_), .. } => {
+                    inc(&mut self.stats.rejected);
+                    inc(&mut self.stats.enable_refused);
+                }
+                Event::Rejected { .. } => inc(&mut self.stats.rejected),
+                Event::Fault(r) => {
+                    if let Some(n) = self.stats.faults.get_mut(fault_kind(r)) {
+                        inc(n);
+                    }
+                }
+                Event::Enabled(_) => inc(&mut self.stats.enabled),
+                Event::SoftEstop { .. } => inc(&mut self.stats.soft_stops),
+                Event::Stopped => inc(&mut self.stats.stopped),
+                Event::HomingDone { .. } => inc(&mut self.stats.homing_done),
+                _ => {}
+            }
+        }
+        if st == State::Operational && out.act.velocity.iter().any(|v| *v != S::ZERO) {
+            inc(&mut self.stats.moving_ticks);
+        }
+    }
+
+    fn check_inner(
+        &mut self,
+        sense: &Sense,
+        sent: Option<&Sent<S>>,
+        out: &TickOutput<S>,
+        phases: Option<&[Phase; AXES]>,
+        plant: Option<&PlantFacts>,
+    ) -> Checked {
+        self.count(out);
+        let st = out.status.state;
+        let prev = self.prev_state;
+        let fail = |sr: &'static str, what: &'static str| Violation {
+            sr,
+            axis: None,
+            what,
+            got: None,
+            bound: None,
+            tick: out.status.tick,
+            state: st,
+        };
+        macro_rules! ensure {
+            ($cond:expr, $v:expr) => {{
+                let ok: bool = $cond;
+                if !ok {
+                    return Err($v);
+                }
+            }};
+        }
+        let has = |want: &Event| out.events.iter().any(|e| e == want);
+
+        // SR-15: refusals are reported; none may be lost.
+        ensure!(out.events.dropped() == 0, fail("SR-15", "events dropped").got(f64::from(out.events.dropped())));
+
+        // What happened to this tick's request.
+        let rejected = out.events.iter().find_map(|e| match e {
+            Event::Rejected { request, reason } => Some((*request, *reason)),
+            _ => None,
+        });
+        if let Some((k, _)) = rejected {
+            ensure!(sent.map(Sent::kind) == Some(k), fail("SR-15", "a rejection without that request"));
+        }
+        let accepted = sent.is_some() && rejected.is_none();
+        let mut n_faults = 0u32;
+        let mut fault_event = None;
+        for e in out.events.iter() {
+            if let Event::Fault(r) = e {
+                n_faults = n_faults.saturating_add(1);
+                fault_event = fault_event.or(Some(*r));
+            }
+        }
+        let all_zero = out.act.velocity.iter().all(|v| *v == S::ZERO) && out.act.step_rate.iter().all(|r| *r == 0);
+
+        self.check_outputs(out, &fail)?;
+
+        // SR-1, SR-4: zero output in Boot, Unhomed, SoftEstop, Fault, and in
+        // the tick a fault is raised (for every axis).
+        if n_faults > 0 {
+            ensure!(all_zero, fail("SR-4", "the tick a fault is raised did not zero every axis"));
+        }
+        if matches!(st, State::Boot | State::Unhomed) {
+            ensure!(all_zero, fail("SR-1", "non-zero output before homing"));
+        }
+        if matches!(st, State::SoftEstop | State::Fault) {
+            ensure!(all_zero, fail("SR-5", "non-zero output while latched"));
+        }
+
+        // SR-1: leaving Boot, each estimate is the encoder's actual reading.
+        if has(&Event::Ready) {
+            ensure!(prev == State::Boot, fail("SR-1", "Ready outside Boot"));
+            if plant.is_some_and(|p| p.clean_since_start) {
+                for (i, ((j, e), (x, v))) in cfg_joints(&self.cfg)
+                    .zip(sense.encoders.iter())
+                    .zip(out.status.position.iter().zip(out.status.velocity.iter()))
+                    .enumerate()
+                {
+                    let EncoderSample::Count(c) = *e else {
+                        return Err(fail("SR-1", "Ready with an encoder lost").on(i));
+                    };
+                    let want = f64::from(c) * j.rad_per_count();
+                    let got = f(*x);
+                    let tol = 2.0 * j.rad_per_count() + 1e-5;
+                    ensure!(
+                        (got - want).abs() <= tol,
+                        fail("SR-1", "estimate does not start at the reading").on(i).got(got).bound(want)
+                    );
+                    ensure!(*v == S::ZERO, fail("SR-1", "estimate does not start at rest").on(i).got(f(*v)));
+                }
+            }
+        }
+
+        // SR-5: a fault latches with its first reason until an accepted enable.
+        ensure!(
+            (st == State::Fault) == out.status.fault.is_some(),
+            fail("SR-5", "Fault state and latched fault disagree")
+        );
+        ensure!(n_faults <= 1, fail("SR-5", "several faults in one tick").got(f64::from(n_faults)));
+        let enabled = out.events.iter().find_map(|e| if let Event::Enabled(s) = e { Some(*s) } else { None });
+        let enable_sent = matches!(sent, Some(Sent::Enable));
+        match (prev == State::Fault, st == State::Fault) {
+            (false, true) => {
+                let Some(fl) = out.status.fault else {
+                    return Err(fail("SR-5", "Fault without a reason"));
+                };
+                ensure!(
+                    n_faults == 1 && fault_event == Some(fl.reason),
+                    fail("SR-5", "entered Fault without its fault event")
+                );
+                self.latched = Some(fl);
+            }
+            (true, true) => {
+                ensure!(n_faults == 0, fail("SR-5", "a second fault event while latched"));
+                ensure!(out.status.fault == self.latched, fail("SR-5", "the latched fault changed"));
+            }
+            (true, false) => {
+                ensure!(enable_sent && enabled == Some(st), fail("SR-5", "left Fault without an accepted enable"));
+                self.latched = None;
+            }
+            (false, false) => ensure!(n_faults == 0, fail("SR-5", "a fault event outside Fault")),
+        }
+
+        // SR-5, SR-7: SoftEstop is latched until enable or home.
+        if prev == State::SoftEstop && !matches!(st, State::SoftEstop | State::Fault) {
+            let ok = match st {
+                State::Homing => matches!(sent, Some(Sent::Home | Sent::HomeJoint(_))) && accepted,
+                _ => enable_sent && enabled == Some(st),
+            };
+            ensure!(ok, fail("SR-5", "left SoftEstop without an accepted enable or home"));
+        }
+
+        // SR-6: enable is refused while a cause is present in this tick's
+        // sensors or state; after it, set-points are the measured positions
+        // and the timeout is disarmed.
+        let sensed_cause =
+            sense.hardware_fault.is_some() || sense.limits & ALL != 0 || !sense.encoders.iter().all(is_count);
+        // SR-6, liveness: a cause named by a refusal is real. After the arm
+        // has rested with nothing injected for `QUIET_TICKS` the estimates
+        // have settled, so no speed is a cause, and a lost encoder, a switch
+        // or a hardware fault must be in this tick's sensors. (A frozen
+        // estimate of a lost encoder once blocked enable for good.)
+        if let (true, Some(p)) = (enable_sent, plant) {
+            if p.quiet_ticks >= QUIET_TICKS {
+                if matches!(prev, State::Fault | State::SoftEstop) {
+                    inc(&mut self.stats.quiet_enables);
+                }
+                for e in out.events.iter() {
+                    if let Event::Rejected { reason: Reject::CauseActive(c), .. } = e {
+                        let real = match *c {
+                            FaultReason::Runaway { .. } => false,
+                            FaultReason::EncoderLost { axis } => {
+                                !sense.encoders.get(usize::from(axis)).is_some_and(is_count)
+                            }
+                            FaultReason::LimitSwitch { axis } => sense.limits & bit(usize::from(axis)) != 0,
+                            FaultReason::Hardware(_) => sense.hardware_fault.is_some(),
+                            _ => true,
+                        };
+                        ensure!(
+                            real,
+                            fail("SR-6", "enable refused for a cause not present after the arm rested")
+                                .got(f64::from(p.quiet_ticks))
+                        );
+                    }
+                }
+            }
+        }
+        if enable_sent {
+            if matches!(prev, State::Fault | State::SoftEstop) && sensed_cause {
+                ensure!(enabled.is_none(), fail("SR-6", "enable accepted with a cause in the sensors"));
+            }
+            if !matches!(prev, State::Fault | State::SoftEstop) {
+                ensure!(enabled.is_none(), fail("SR-6", "enable accepted with nothing latched"));
+            }
+        }
+        if let Some(s) = enabled {
+            ensure!(enable_sent, fail("SR-6", "Enabled without an enable request"));
+            ensure!(matches!(prev, State::Fault | State::SoftEstop), fail("SR-6", "enabled from a state not latched"));
+            ensure!(!sensed_cause, fail("SR-6", "enabled with a cause in the sensors"));
+            ensure!(n_faults == 0, fail("SR-6", "enabled and faulted in the same tick"));
+            ensure!(
+                s == st && matches!(st, State::Operational | State::Unhomed),
+                fail("SR-6", "enabled into a state other than Operational or Unhomed")
+            );
+            ensure!(!out.status.timeout_armed, fail("SR-6", "timeout armed after enable"));
+            for (i, ((sp, x), (v, j))) in out
+                .status
+                .setpoint
+                .iter()
+                .zip(out.status.position.iter())
+                .zip(out.status.velocity.iter().zip(cfg_joints(&self.cfg)))
+                .enumerate()
+            {
+                ensure!(
+                    sp == x,
+                    fail("SR-6", "set-point differs from the position after enable").on(i).got(f(*sp)).bound(f(*x))
+                );
+                ensure!(
+                    v.abs() <= S::from_f32(j.max_velocity),
+                    fail("SR-6", "enabled while the axis moves above vmax")
+                        .on(i)
+                        .got(f(*v))
+                        .bound(f64::from(j.max_velocity))
+                );
+            }
+            if st == State::Operational {
+                ensure!(out.status.homed == ALL, fail("SR-6", "Operational after enable but not every joint homed"));
+            }
+        }
+
+        // SR-7: the soft E-stop ramp: starts exactly `timeout` ticks after the
+        // last accepted command when armed, never increases or reverses,
+        // steps at most vmax/N, reaches zero within N ticks and latches.
+        let stop_event = out.events.iter().any(|e| matches!(e, Event::SoftEstop { .. }));
+        let waited = self.since_accept.map(|t| t.saturating_add(1));
+        let due = prev == State::Operational && self.prev_armed && waited == Some(self.timeout_ticks) && !accepted;
+        ensure!(
+            stop_event == due,
+            fail(
+                "SR-7",
+                if due {
+                    "no soft stop at the command timeout"
+                } else {
+                    "a soft stop other than at the command timeout"
+                }
+            )
+            .got(waited.map_or(-1.0, f64::from))
+            .bound(f64::from(self.timeout_ticks))
+        );
+        if st == State::Stopping || (prev == State::Stopping && st == State::SoftEstop) {
+            ensure!(
+                matches!(prev, State::Operational | State::Stopping),
+                fail("SR-7", "Stopping entered from a state other than Operational")
+            );
+            if prev == State::Operational {
+                ensure!(stop_event, fail("SR-7", "Stopping without a SoftEstop event"));
+                self.stopping_ticks = 0;
+            }
+            self.stopping_ticks = self.stopping_ticks.saturating_add(1);
+            for (i, (a, b)) in out.act.velocity.iter().zip(self.prev_out.iter()).enumerate() {
+                let (a, b) = (*a, *b);
+                ensure!(a.abs() <= b.abs(), fail("SR-7", "soft-stop speed increased").on(i).got(f(a)).bound(f(b)));
+                ensure!(
+                    a == S::ZERO || (a > S::ZERO) == (b > S::ZERO),
+                    fail("SR-7", "soft stop reversed").on(i).got(f(a)).bound(f(b))
+                );
+            }
+            let n = f64::from(self.stop_ticks);
+            let over =
+                first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.001, |j| f64::from(j.max_velocity) / n);
+            if let Some((i, step, bound)) = over {
+                return Err(fail("SR-7", "soft stop decelerates more than vmax/N in a tick")
+                    .on(i)
+                    .got(step)
+                    .bound(bound));
+            }
+            if st == State::Stopping {
+                ensure!(
+                    self.stopping_ticks < self.stop_ticks,
+                    fail("SR-7", "still Stopping after N ticks")
+                        .got(f64::from(self.stopping_ticks))
+                        .bound(f64::from(self.stop_ticks))
+                );
+            } else {
+                ensure!(all_zero && has(&Event::Stopped), fail("SR-7", "ramp end without zero output and Stopped"));
+            }
+        }
+        if prev == State::Stopping && !matches!(st, State::Stopping | State::SoftEstop | State::Fault) {
+            return Err(fail("SR-7", "left Stopping other than to SoftEstop or Fault"));
+        }
+        if has(&Event::Stopped) {
+            // The ramp can end in the tick a fault is detected: the fault
+            // then takes the arm to Fault instead of SoftEstop (found by a
+            // differential run, session 2).
+            let faulted_now = st == State::Fault && n_faults > 0;
+            ensure!(
+                (st == State::SoftEstop || faulted_now) && prev == State::Stopping,
+                fail("SR-7", "Stopped outside the end of a ramp")
+            );
+            // The ramp's ticks, from the SoftEstop event (k = 1) to the zero
+            // (k = N). (The fault tick is not counted above when the fault wins.)
+            let took = self.stopping_ticks.saturating_add(u32::from(faulted_now));
+            ensure!(
+                took == self.stop_ticks,
+                fail("SR-7", "the ramp did not take exactly N ticks")
+                    .got(f64::from(self.stopping_ticks))
+                    .bound(f64::from(self.stop_ticks))
+            );
+        }
+
+        // SR-8: the timeout is armed only by an accepted motion command, and
+        // disarmed by homing and enable.
+        let motion_accepted = accepted && matches!(sent, Some(Sent::Motion(_)));
+        if out.status.timeout_armed && !self.prev_armed {
+            ensure!(motion_accepted, fail("SR-8", "timeout armed without an accepted motion command"));
+        }
+        if out.events.iter().any(|e| matches!(e, Event::HomingStarted { .. })) {
+            ensure!(!out.status.timeout_armed, fail("SR-8", "timeout armed after homing started"));
+        }
+        self.since_accept = if motion_accepted { Some(0) } else { self.since_accept.map(|t| t.saturating_add(1)) };
+
+        // SR-9: a speed estimate above the runaway threshold is a fault.
+        for (i, (v, j)) in out.status.velocity.iter().zip(cfg_joints(&self.cfg)).enumerate() {
+            if v.abs() > S::from_f32(j.runaway_velocity) {
+                ensure!(
+                    st == State::Fault,
+                    fail("SR-9", "estimate above the runaway threshold without a fault")
+                        .on(i)
+                        .got(f(*v))
+                        .bound(f64::from(j.runaway_velocity))
+                );
+            }
+        }
+
+        // SR-10: a pressed switch outside homing is a fault; during homing,
+        // on a homed axis at rest.
+        let pressed = sense.limits & ALL;
+        if pressed != 0 {
+            ensure!(
+                !matches!(st, State::Operational | State::Stopping | State::SoftEstop),
+                fail("SR-10", "a switch pressed without a fault").got(f64::from(pressed))
+            );
+        }
+        if let (State::Homing, Some(ph)) = (st, phases) {
+            for (i, p) in ph.iter().enumerate() {
+                let still_homed = out.status.homed & bit(i) != 0 && !p.is_moving();
+                ensure!(
+                    !(pressed & bit(i) != 0 && still_homed),
+                    fail("SR-10", "switch pressed on a homed axis at rest during homing").on(i)
+                );
+            }
+        }
+
+        // SR-11: more than `encoder_invalid_limit` invalid samples in a row
+        // (outside Boot) is a fault, and that joint must be homed again.
+        let limit = self.cfg.encoder_invalid_limit;
+        for (i, (streak, e)) in self.lost_streak.iter_mut().zip(sense.encoders.iter()).enumerate() {
+            *streak = if is_count(e) { 0 } else { streak.saturating_add(1) };
+            if *streak > limit && prev != State::Boot {
+                ensure!(
+                    st == State::Fault,
+                    fail("SR-11", "encoder invalid too long without a fault")
+                        .on(i)
+                        .got(f64::from(*streak))
+                        .bound(f64::from(limit))
+                );
+                self.must_rehome |= bit(i);
+            }
+        }
+        for e in out.events.iter() {
+            if let Event::HomingStarted { mask } = e {
+                self.must_rehome &= !mask;
+            }
+        }
+        if st != State::Fault {
+            ensure!(
+                out.status.homed & self.must_rehome == 0,
+                fail("SR-11", "a joint counted as homed after losing its encoder")
+                    .got(f64::from(out.status.homed & self.must_rehome))
+            );
+        }
+
+        // SR-13, SR-16: during homing, an axis moves only in a moving phase,
+        // and only after every axis of the earlier groups is homed and still.
+        if st == State::Homing {
+            for (i, (v, deps)) in out.act.velocity.iter().zip(SEED_DEPENDENCIES.iter()).enumerate() {
+                let deps = *deps;
+                let moving = *v != S::ZERO;
+                let phase_moving = phases.and_then(|p| p.get(i)).is_some_and(|p| p.is_moving());
+                if moving && phases.is_some() {
+                    ensure!(phase_moving, fail("SR-16", "axis moves in a homing phase that does not move").on(i));
+                }
+                if moving || phase_moving {
+                    ensure!(
+                        out.status.homed & deps == deps,
+                        fail("SR-13", "axis moves in homing with earlier joints unhomed")
+                            .on(i)
+                            .got(f64::from(deps & !out.status.homed))
+                    );
+                    if let Some(ph) = phases {
+                        for (d, p) in ph.iter().enumerate() {
+                            ensure!(
+                                deps & bit(d) == 0 || !p.is_moving(),
+                                fail("SR-13", "axis moves while an earlier axis is still homing").on(i).got(d as f64)
+                            );
+                        }
+                    }
+                }
+            }
+        } else if let Some(ph) = phases {
+            ensure!(ph.iter().all(|p| !p.is_moving()), fail("SR-16", "a homing phase moves outside Homing"));
+        }
+        // SR-13: per-joint homing is refused while its dependencies are unhomed.
+        if let (Some(Sent::HomeJoint(j)), true) = (sent, accepted) {
+            let Some(deps) = SEED_DEPENDENCIES.get(usize::from(*j)) else {
+                return Err(fail("SR-13", "HomeJoint of a joint that does not exist accepted").got(f64::from(*j)));
+            };
+            // `homed` before the tick: sensing does not change it.
+            ensure!(
+                self.prev_homed & deps == *deps,
+                fail("SR-13", "HomeJoint accepted with its dependencies unhomed").on(usize::from(*j))
+            );
+        }
+
+        // SR-14: a homing run on a clean plant zeroes every homed axis at its
+        // true angle.
+        if let Some(p) = plant.filter(|p| p.clean_homing) {
+            for e in out.events.iter() {
+                if let Event::HomingDone { mask } = e {
+                    for (i, (x, q)) in out.status.position.iter().zip(p.q.iter()).enumerate() {
+                        if mask & bit(i) != 0 && out.status.homed & bit(i) != 0 {
+                            let err = f(*x) - q;
+                            // The estimate may still lag the release move by
+                            // a few mrad (alpha-beta transient); a zero taken
+                            // from anything but the reading at the switch is
+                            // off by far more.
+                            ensure!(
+                                err.abs() < 2e-2,
+                                fail("SR-14", "homed off the true angle").on(i).got(err).bound(2e-2)
+                            );
+                        }
+                    }
+                }
+            }
+        }
+
+        // SR-15: motion is accepted only in Operational. SR-17: accepted
+        // targets are finite and within the limits, and a clearly valid
+        // target in Operational is accepted.
+        if let Some(Sent::Motion(t)) = sent {
+            if motion_accepted {
+                inc(&mut self.stats.accepted);
+                ensure!(prev == State::Operational, fail("SR-15", "motion accepted outside Operational"));
+            }
+            if let Some(t) = t {
+                let verdict = validity(&self.cfg, t);
+                if motion_accepted {
+                    ensure!(verdict != Validity::Invalid, fail("SR-17", "invalid target accepted"));
+                } else if prev == State::Operational && verdict == Validity::Valid {
+                    return Err(fail("SR-17", "valid target rejected in Operational"));
+                }
+            }
+        }
+
+        let hz = f64::from(self.cfg.tick_hz);
+        // SR-18: in Operational the set-point moves at most vmax/tick_hz per tick.
+        if st == State::Operational && prev == State::Operational {
+            let over = first_step_over(&self.cfg, &out.status.setpoint, &self.prev_setpoint, 1.001, |j| {
+                f64::from(j.max_velocity) / hz
+            });
+            if let Some((i, step, bound)) = over {
+                return Err(fail("SR-18", "set-point stepped more than vmax/tick_hz").on(i).got(step).bound(bound));
+            }
+        }
+
+        // SR-19: in Operational and Stopping every (homed) axis is within its
+        // limits plus the margin.
+        if matches!(st, State::Operational | State::Stopping) {
+            ensure!(out.status.homed == ALL, fail("SR-19", "Operational or Stopping with a joint unhomed"));
+            let m = self.cfg.position_margin;
+            for (i, (x, j)) in out.status.position.iter().zip(cfg_joints(&self.cfg)).enumerate() {
+                let (lo, hi) = (j.limit_min - m, j.limit_max + m);
+                ensure!(
+                    *x >= S::from_f32(lo) && *x <= S::from_f32(hi),
+                    fail("SR-19", "axis outside its limits plus margin without a fault")
+                        .on(i)
+                        .got(f(*x))
+                        .bound(f64::from(if f(*x) < 0.0 { lo } else { hi }))
+                );
+            }
+        }
+
+        // SR-25: in Operational the output changes by at most
+        // max_acceleration / tick_hz per tick.
+        if st == State::Operational {
+            let over = first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.0001, |j| {
+                f64::from(j.max_acceleration) / hz
+            });
+            if let Some((i, dv, bound)) = over {
+                return Err(fail("SR-25", "output stepped more than max_acceleration/tick_hz")
+                    .on(i)
+                    .got(dv)
+                    .bound(bound));
+            }
+        }
+        Ok(())
+    }
+
+    /// SR-2: every output finite and within the joint's max velocity; the
+    /// step rate within the step generator's range and the joint's max
+    /// velocity in steps, with the velocity's sign.
+    fn check_outputs(&self, out: &TickOutput<S>, fail: &dyn Fn(&'static str, &'static str) -> Violation) -> Checked {
+        let cfg = &self.cfg;
+        for (i, ((j, v), r)) in cfg_joints(cfg).zip(out.act.velocity.iter()).zip(out.act.step_rate.iter()).enumerate() {
+            let (v, r) = (*v, *r);
+            let vmax = f64::from(j.max_velocity);
+            if !(v.is_finite() && v.abs() <= S::from_f32(j.max_velocity)) {
+                return Err(fail("SR-2", "output not finite or above max velocity").on(i).got(f(v)).bound(vmax));
+            }
+            let rate = f64::from(r).abs();
+            if r.unsigned_abs() > cfg.max_step_rate {
+                return Err(fail("SR-2", "step rate above the step generator's limit")
+                    .on(i)
+                    .got(rate)
+                    .bound(f64::from(cfg.max_step_rate)));
+            }
+            let rmax = vmax * j.steps_per_rad() * 1.001 + 1.0;
+            if rate > rmax {
+                return Err(fail("SR-2", "step rate above the joint's max velocity").on(i).got(rate).bound(rmax));
+            }
+            let vf = v.to_f32();
+            let signed_ok = if vf == 0.0 { r == 0 } else { r == 0 || (vf > 0.0) == (r > 0) };
+            if !signed_ok {
+                return Err(fail("SR-2", "step rate against the velocity's sign").on(i).got(f64::from(r)));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The first axis whose value moved between two ticks by more than its
+/// per-tick bound `limit(joint)` (times `rel`, plus 1e-6 of slack; a NaN
+/// step is over): (axis, step, bound).
+fn first_step_over<S: Scalar>(
+    cfg: &ArmConfig,
+    now: &[S; AXES],
+    before: &[S; AXES],
+    rel: f64,
+    limit: impl Fn(&kernel::config::JointConfig) -> f64,
+) -> Option<(usize, f64, f64)> {
+    for (i, ((a, b), j)) in now.iter().zip(before.iter()).zip(cfg_joints(cfg)).enumerate() {
+        let step = (f(*a) - f(*b)).abs();
+        let bound = limit(j);
+        let within = step <= bound * rel + 1e-6;
+        if !within {
+            return Some((i, step, bound));
+        }
+    }
+    None
+}
+
+fn cfg_joints(cfg: &ArmConfig) -> core::slice::Iter<'_, kernel::config::JointConfig> {
+    cfg.joints.iter()
+}
+
+#[cfg(test)]
+mod tests;
