@@ -31,7 +31,7 @@ use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
 use hal_imxrt::pure::step::{StepCommand, StepConfig};
 use kernel::config::{ArmConfig, AXES};
 use kernel::homing::Phase;
-use kernel::{Authority, Event, HardwareFault, KernelF32, RequestKind, State, TickOutput};
+use kernel::{Authority, Event, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State, TickOutput};
 use protocol::feedback::{FeedbackDivider, FeedbackMode};
 use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
 use protocol::receiver::{Counters, Received, Receiver};
@@ -132,7 +132,9 @@ pub struct TickRecord {
     /// The request handed to the kernel, if any.
     pub request: Option<RequestKind>,
     /// The motion target of that request, if it was one.
-    pub target: Option<[f32; AXES]>,
+    pub target: Option<MotionTarget<f32>>,
+    /// What the kernel sensed.
+    pub sense: Sense,
     /// The encoder readings after decode and tracking.
     pub readings: [EncoderReading; AXES],
     /// The step commands applied.
@@ -227,7 +229,7 @@ impl Controller<'_> {
         // 2. one request; ENABLE becomes a capability only here
         let cmd = self.link.recv();
         let (target, seq) = match &cmd {
-            Some(Command::Motion { seq, target, .. }) => (Some(target.position), Some(*seq)),
+            Some(Command::Motion { seq, target, .. }) => (Some(*target), Some(*seq)),
             _ => (None, None),
         };
         let authority = &self.authority;
@@ -269,7 +271,7 @@ impl Controller<'_> {
             self.pending_fault = Some(HardwareFault::TickOverrun);
         }
         self.last_us = crate::cycles_to_us(board.cycles().wrapping_sub(t0));
-        TickRecord { out, request: kind, target, readings, cmds }
+        TickRecord { out, request: kind, target, sense, readings, cmds }
     }
 
     /// The kernel (read-only).

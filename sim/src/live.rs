@@ -17,7 +17,7 @@ use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
 use crate::plant::PlantOptions;
-use crate::root::{Root, SimPort, Step};
+use crate::root::{Root, SimPort};
 
 /// Live-mode options.
 #[derive(Clone, Debug)]
@@ -162,7 +162,7 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
     let start = Instant::now();
     let mut t_sim: u64 = 0;
     let mut pending: Vec<u8> = Vec::new();
-    let mut prev: Option<Step> = None;
+    let mut checker = crate::runner::TickChecker::new(cfg);
     let mut violations = 0u64;
     let mut last_state = None;
     let mut skipped = 0u64;
@@ -192,11 +192,10 @@ pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
                 println!("{:>9.3} s  state {st:?}", t_sim as f64 / 1000.0);
                 last_state = Some(st);
             }
-            for v in crate::runner::check_tick(cfg, &step, prev.as_ref()) {
+            for v in checker.check(&step) {
                 violations += 1;
                 eprintln!("{:>9.3} s  SAFETY VIOLATION: {v}", t_sim as f64 / 1000.0);
             }
-            prev = Some(step);
             t_sim += 1;
         }
         std::thread::sleep(Duration::from_micros(250));

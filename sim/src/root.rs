@@ -20,7 +20,7 @@ use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::step::StepCommand;
 use kernel::config::{ArmConfig, AXES};
 use kernel::homing::Phase;
-use kernel::{KernelF32, RequestKind, TickOutput};
+use kernel::{KernelF32, MotionTarget, RequestKind, Sense, TickOutput};
 
 use crate::encoder::DecodeStats;
 use crate::plant::{Plant, PlantOptions};
@@ -35,7 +35,9 @@ pub struct Step {
     /// The request handed to the kernel this tick.
     pub request: Option<RequestKind>,
     /// The motion target of that request, if it was one.
-    pub target: Option<[f32; AXES]>,
+    pub target: Option<MotionTarget<f32>>,
+    /// What the kernel sensed this tick.
+    pub sense: Sense,
     /// Homing phase of every axis after the tick.
     pub phases: [Phase; AXES],
     /// Every complete line the port took during this step, in order.
@@ -240,6 +242,7 @@ impl Root {
             out: rec.out,
             request: rec.request,
             target: rec.target,
+            sense: rec.sense,
             phases: self.controller.homing_phases(),
             lines,
         };

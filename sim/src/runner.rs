@@ -6,7 +6,8 @@ use std::collections::BTreeMap;
 
 use firmware::root::HostConfig;
 use kernel::config::{ArmConfig, AXES};
-use kernel::{Event, FaultReason, HomingStatus, Kernel, RequestKind, State};
+use kernel::{Event, FaultReason, HomingStatus, RequestKind, State};
+use monitor::{Monitor, Sent};
 
 use crate::client::{configurator_line, driver_line, driver_view};
 use crate::plant::PlantOptions;
@@ -97,18 +98,6 @@ impl Hosts {
     }
 }
 
-fn kernel_state_name(s: State) -> &'static str {
-    match s {
-        State::Boot => "BOOT",
-        State::Unhomed => "UNHOMED",
-        State::Homing => "HOMING",
-        State::Operational => "OPERATIONAL",
-        State::Stopping => "STOPPING",
-        State::SoftEstop => "SOFT_ESTOP",
-        State::Fault => "FAULT",
-    }
-}
-
 /// Short text of a fault reason, for the report.
 pub fn fault_text(r: &FaultReason) -> String {
     match *r {
@@ -138,69 +127,50 @@ fn fault_matches(kind: &str, joint: Option<usize>, r: &FaultReason) -> bool {
     (kind == "any" || kind == k) && joint.is_none_or(|j| axis == Some(j as u8))
 }
 
-/// Safety checks of one tick; returns the violations.
-pub fn check_tick(cfg: &ArmConfig, step: &Step, prev: Option<&Step>) -> Vec<String> {
-    let mut bad = Vec::new();
-    let out = &step.out;
-    let st = out.status.state;
-    for i in 0..AXES {
-        let v = out.act.velocity[i];
-        let vmax = cfg.joints[i].max_velocity;
-        if !(v.is_finite() && v.abs() <= vmax * 1.000_01) {
-            bad.push(format!("J{} output {v} not finite or above max velocity {vmax}", i + 1));
-        }
-        let r = f64::from(out.act.step_rate[i]);
-        let rmax = f64::from(vmax) * cfg.joints[i].steps_per_rad() * 1.001 + 1.0;
-        if r.abs() > rmax || r.abs() > f64::from(cfg.max_step_rate) {
-            bad.push(format!("J{} step rate {r} above the joint's limit {rmax:.0}", i + 1));
-        }
-        if (v > 0.0 && r < 0.0) || (v < 0.0 && r > 0.0) {
-            bad.push(format!("J{} step rate {r} against velocity {v}", i + 1));
-        }
+/// The simulator's per-tick safety check: the project's one safety monitor
+/// (`monitor`, written from SAFETY.md) on what the kernel sensed, was sent
+/// and returned, plus the wire checks only the simulator can make (no
+/// `nan`/`inf`, printable bytes, every `<` line readable by its client).
+#[derive(Clone, Debug)]
+pub struct TickChecker {
+    monitor: Monitor<f32>,
+}
+
+impl TickChecker {
+    /// A checker for a kernel on `cfg`, created with it.
+    pub fn new(cfg: &ArmConfig) -> Self {
+        TickChecker { monitor: Monitor::new(cfg) }
     }
-    let zero = out.act.velocity.iter().all(|v| *v == 0.0) && out.act.step_rate.iter().all(|r| *r == 0);
-    if matches!(st, State::Boot | State::Unhomed | State::SoftEstop | State::Fault) && !zero {
-        bad.push(format!("non-zero output in {}", kernel_state_name(st)));
-    }
-    if out.events.iter().any(|e| matches!(e, Event::Fault(_))) && !zero {
-        bad.push("fault tick did not zero every axis".to_string());
-    }
-    if st == State::Homing {
-        for i in 0..AXES {
-            let moving = out.act.velocity[i] != 0.0;
-            let needs = Kernel::<f32>::dependencies(i);
-            if moving && out.status.homed & needs != needs {
-                bad.push(format!("J{} moving during homing before its dependencies {needs:#04x} were homed", i + 1));
+
+    /// Checks one step (call for every step, in order); returns the
+    /// violations.
+    pub fn check(&mut self, step: &Step) -> Vec<String> {
+        let mut bad = Vec::new();
+        let sent = step.request.map(|k| match (k, step.target) {
+            (RequestKind::Motion, Some(t)) => Sent::Motion(Some(t)),
+            (k, _) => Sent::from_kind(k),
+        });
+        if let Err(v) = self.monitor.check(&step.sense, sent.as_ref(), &step.out, Some(&step.phases), None) {
+            bad.push(v.to_string());
+        }
+        for l in &step.lines {
+            let low = l.to_ascii_lowercase();
+            if low.contains("nan") || low.contains("inf") {
+                bad.push(format!("line contains nan/inf: {}", l.trim_end()));
             }
-            if moving && !step.phases[i].is_moving() {
-                bad.push(format!("J{} moving during homing in phase {:?}", i + 1, step.phases[i]));
+            if !l.bytes().all(|b| b == b'\n' || (0x20..0x7f).contains(&b)) {
+                bad.push(format!("line with non-printable bytes: {l:?}"));
             }
-        }
-    }
-    if let Some(p) = prev {
-        let ramping = st == State::Stopping || (st == State::SoftEstop && p.out.status.state == State::Stopping);
-        if ramping {
-            for i in 0..AXES {
-                let (now, before) = (out.act.velocity[i].abs(), p.out.act.velocity[i].abs());
-                if now > before + 1e-6 {
-                    bad.push(format!("J{} soft-stop speed increased {before} -> {now}", i + 1));
-                }
+            let t = l.trim_start();
+            if t.starts_with('<') && driver_view(l).is_none() && !crate::client::configurator_matches(l) {
+                bad.push(format!("feedback line neither client can read: {}", l.trim_end()));
+            }
+            if l.starts_with('<') && driver_view(l).is_none() {
+                bad.push(format!("a line starting with `<` that the driver would take and reject: {}", l.trim_end()));
             }
         }
+        bad
     }
-    for l in &step.lines {
-        let low = l.to_ascii_lowercase();
-        if low.contains("nan") || low.contains("inf") {
-            bad.push(format!("line contains nan/inf: {}", l.trim_end()));
-        }
-        if !l.bytes().all(|b| b == b'\n' || (0x20..0x7f).contains(&b)) {
-            bad.push(format!("line with non-printable bytes: {l:?}"));
-        }
-        if l.starts_with('<') && driver_view(l).is_none() && !crate::client::configurator_matches(l) {
-            bad.push(format!("feedback line neither client can read: {}", l.trim_end()));
-        }
-    }
-    bad
 }
 
 /// Runs one scenario; `progress` is called with the fraction done.
@@ -237,7 +207,8 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     let mut targets: Vec<(u64, [f32; AXES])> = Vec::new();
     let mut lines_sent = 0u64;
     let mut bytes_in = 0u64;
-    let mut prev: Option<Step> = None;
+    let mut checker = TickChecker::new(cfg);
+    let mut prev_status: Option<kernel::Status<f32>> = None;
     let mut t: u64 = 0;
     loop {
         let end = sc.end.resolve(&occ).unwrap_or(sc.max_ms).min(sc.max_ms);
@@ -336,7 +307,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             && !out.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
         if accepted {
             if let Some(tg) = step.target {
-                targets.push((t, tg));
+                targets.push((t, tg.position));
             }
         }
         trace.push(Sample {
@@ -364,7 +335,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 _ => {}
             }
         }
-        let ps = prev.as_ref().map(|p| p.out.status);
+        let ps = prev_status;
         if out.status.homing == HomingStatus::Complete && ps.is_none_or(|p| p.homing != HomingStatus::Complete) {
             occ[Anchor::Homed.index()].push(t);
         }
@@ -402,14 +373,14 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 all_lines.push((t, l.clone()));
             }
         }
-        let bad = check_tick(cfg, &step, prev.as_ref());
+        prev_status = Some(step.out.status);
+        let bad = checker.check(&step);
         for b in bad {
             violation_count += 1;
             if violations.len() < 50 {
                 violations.push((t, b));
             }
         }
-        prev = Some(step);
         t += 1;
     }
     progress(1.0);
@@ -504,7 +475,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 None => (false, format!("{w} never happened")),
                 Some(at) => {
                     let at = at.min(t.saturating_sub(1));
-                    let st = state_at(at).map(kernel_state_name).unwrap_or("none");
+                    let st = state_at(at).map(protocol::report::state_name).unwrap_or("none");
                     (st == name, format!("{st} at {at} ms"))
                 }
             },

@@ -167,7 +167,7 @@ pub enum Expect {
     NoFault,
     /// A fault of this kind (and joint index, if given) was raised.
     Fault(String, Option<usize>),
-    /// The state at a time (name as on the wire: `OPERATIONAL`, `SOFT_ESTOP`...).
+    /// The state at a time (name as on the wire: `OPERATIONAL`, `ESTOP_LATCHED`...).
     State(When, String),
     /// Homing completed (H2) by this time.
     HomedBy(When),
@@ -431,7 +431,18 @@ fn parse_expect(text: &str) -> Result<Expect> {
         }
         "state" => {
             let [t, st] = two(&w)?;
-            const STATES: [&str; 7] = ["BOOT", "UNHOMED", "HOMING", "OPERATIONAL", "STOPPING", "SOFT_ESTOP", "FAULT"];
+            // The wire's names (`protocol::report::state_name`), one spelling
+            // everywhere.
+            use kernel::State as K;
+            const STATES: [&str; 7] = [
+                protocol::report::state_name(K::Boot),
+                protocol::report::state_name(K::Unhomed),
+                protocol::report::state_name(K::Homing),
+                protocol::report::state_name(K::Operational),
+                protocol::report::state_name(K::Stopping),
+                protocol::report::state_name(K::SoftEstop),
+                protocol::report::state_name(K::Fault),
+            ];
             if !STATES.contains(&st) {
                 bail!("unknown state `{st}` (one of {})", STATES.join(", "));
             }

@@ -151,6 +151,10 @@ fn ros2_driver_client_homes_and_reaches_a_goal() {
         assert!(homing_started.elapsed() < Duration::from_secs(60), "no H2 within 60 s");
         std::thread::sleep(Duration::from_millis(10));
         let newest = port.drain().into_iter().rev().find(|l| l.starts_with('<'));
+        if let Some(l) = &newest {
+            // The driver takes the newest `<` line: it must always be its own.
+            assert!(driver_view(l).is_some(), "the driver would reject its newest line {l:?}");
+        }
         if let Some(v) = newest.as_deref().and_then(driver_view) {
             assert!(v.homing.is_some(), "driver line without the H token");
             if v.homing == Some(3) {
@@ -186,6 +190,7 @@ fn ros2_driver_client_homes_and_reaches_a_goal() {
         sent.push((t, p));
         for l in port.drain() {
             if l.starts_with('<') {
+                assert!(driver_view(&l).is_some(), "the driver would reject {l:?}");
                 newest = Some(l);
             }
         }

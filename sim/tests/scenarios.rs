@@ -6,7 +6,7 @@ use kernel::State;
 use sim::plant::PlantOptions;
 use sim::report::Report;
 use sim::root::Root;
-use sim::runner::{check_tick, run, RunOptions};
+use sim::runner::{run, RunOptions, TickChecker};
 use sim::scenario::{builtin, Scenario};
 
 fn run_builtin(name: &str) -> Report {
@@ -126,27 +126,31 @@ fn serial1_host_runs_the_stream_scenario() {
     assert_passes(&r);
 }
 
-/// The per-tick checker is not vacuous: it flags a moving output in UNHOMED
-/// and a `nan` on the wire.
+/// The per-tick checker (the safety monitor plus the wire checks) is not
+/// vacuous: it flags a moving output in UNHOMED, a NaN output and a `nan`
+/// on the wire.
 #[test]
 fn safety_checker_flags_violations() {
     let mut root = Root::new(&PAROL6, PlantOptions::new(&PAROL6), firmware::root::HostConfig::USB);
+    let mut checker = TickChecker::new(&PAROL6);
     let mut step = root.step(b"");
+    assert!(checker.check(&step).is_empty());
     for _ in 0..10 {
         step = root.step(b"");
+        assert!(checker.check(&step).is_empty(), "{:?}", checker.check(&step));
     }
     assert_eq!(step.out.status.state, State::Unhomed);
-    assert!(check_tick(&PAROL6, &step, None).is_empty());
     let mut bad = step.clone();
     bad.out.act.velocity[2] = 0.5;
     bad.out.act.step_rate[2] = 9000;
-    assert!(check_tick(&PAROL6, &bad, None).iter().any(|v| v.contains("non-zero output in UNHOMED")));
+    let v = checker.clone().check(&bad);
+    assert!(v.iter().any(|v| v.contains("UNHOMED") || v.contains("Unhomed")), "{v:?}");
     let mut bad = step.clone();
     bad.out.act.velocity[0] = f32::NAN;
-    assert!(!check_tick(&PAROL6, &bad, None).is_empty());
+    assert!(!checker.clone().check(&bad).is_empty());
     let mut bad = step;
     bad.lines.push("<ACK,1,nan>\n".into());
-    assert!(check_tick(&PAROL6, &bad, None).iter().any(|v| v.contains("nan")));
+    assert!(checker.clone().check(&bad).iter().any(|v| v.contains("nan")));
     let _ = AXES;
 }
 
