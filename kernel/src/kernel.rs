@@ -215,6 +215,9 @@ enum Mode<S> {
 /// The safety kernel for one arm, generic over the scalar type.
 #[derive(Clone, Debug)]
 pub struct Kernel<S: Scalar> {
+    /// Identity: only capabilities minted by this kernel's [`Authority`]
+    /// are accepted. Not part of the state (`Hash` ignores it).
+    id: KernelId,
     p: Params<S>,
     axes: [Axis<S>; AXES],
     mode: Mode<S>,
@@ -255,8 +258,14 @@ impl<S: Scalar> Kernel<S> {
     /// A kernel in [`State::Boot`], and the one [`Authority`] that can mint
     /// enable capabilities for it. The configuration must be valid (check it
     /// at compile time with [`crate::config::assert_valid`]).
+    ///
+    /// Each call draws a fresh identity: the [`Authority`] of one kernel
+    /// mints capabilities that every other kernel refuses
+    /// ([`Reject::ForeignCapability`]).
     pub fn new(config: &ArmConfig) -> (Self, Authority) {
+        let id = KernelId::fresh();
         let k = Kernel {
+            id,
             p: Params::new(config),
             axes: [Axis::new(); AXES],
             mode: Mode::Boot,
@@ -274,7 +283,18 @@ impl<S: Scalar> Kernel<S> {
             intervals: [0; 4],
             last_out: [S::ZERO; AXES],
         };
-        (k, Authority::new())
+        (k, Authority::new(id))
+    }
+
+    /// A copy of this kernel in the same state but with a fresh identity,
+    /// and the one [`Authority`] for the copy (restoring a snapshot in
+    /// tests). The copy refuses this kernel's capabilities and this kernel
+    /// refuses the copy's: holding `&self` gives no power over `self`. A
+    /// plain `clone` keeps the identity (the same kernel, as a model
+    /// checker's states are) and comes with no authority.
+    pub fn fork(&self) -> (Self, Authority) {
+        let id = KernelId::fresh();
+        (Kernel { id, ..self.clone() }, Authority::new(id))
     }
 
     /// Current supervisor state.
@@ -672,7 +692,8 @@ impl<S: Scalar> Kernel<S> {
                 }
                 self.start_homing(bit(j))
             }
-            Request::Enable(_cap) => self.enable(sense, detected),
+            Request::Enable(cap) if cap.kernel() != self.id => Err(Reject::ForeignCapability),
+            Request::Enable(_) => self.enable(sense, detected),
         }
     }
 

@@ -149,6 +149,7 @@ fn kernel_reject(out: &mut Line, r: &Reject) -> Result<(), Full> {
             push_str(out, "CAUSE_ACTIVE ")?;
             fault_reason(out, &reason)
         }
+        Reject::ForeignCapability => push_str(out, "FOREIGN_CAPABILITY"),
     }
 }
 
