@@ -2,9 +2,8 @@
 //! groups of [`HOMING_GROUPS`], J6; J5, J4; J1, J2, J3), stepping each
 //! active axis's [`crate::homing::AxisHoming`], capturing the zero, and
 //! ending the run. The per-axis homing phases themselves are in
-//! [`crate::homing`]; the mode changes go through
-//! [`Kernel::transition`](super::Kernel) (`Edge::StartHoming`,
-//! `Edge::HomingDone`).
+//! [`crate::homing`]; the mode changes go through `Kernel::transition`
+//! (`Edge::StartHoming`, `Edge::HomingDone`) in the supervisor.
 
 use super::supervisor::Edge;
 use super::{bit, Kernel};
