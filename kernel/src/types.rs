@@ -1,5 +1,7 @@
 //! The kernel's public data: what goes into a tick and what comes out.
 
+use core::sync::atomic::{AtomicU32, Ordering};
+
 use crate::config::AXES;
 use crate::homing::Phase;
 
@@ -47,31 +49,132 @@ pub struct MotionTarget<S> {
     pub velocity: [S; AXES],
 }
 
+/// The identity of one kernel instance, drawn from a global counter by
+/// [`crate::Kernel::new`] (and [`crate::Kernel::fork`]). It ties an
+/// [`Authority`] and its [`EnableCapability`] tokens to the kernel that
+/// minted them. It identifies, it does not describe: it takes no part in the
+/// kernel's `Hash` (the model check) and no decision but the capability
+/// check reads it. A clone of a kernel keeps its identity (it is a snapshot
+/// of the same kernel). The counter wraps after 2^32 kernels, far beyond any
+/// process that makes one kernel per arm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct KernelId(u32);
+
+/// The next kernel identity. `fetch_add` on an `AtomicU32` is available on
+/// the host and on `thumbv7em` (LDREX/STREX), needs no `unsafe`, and wraps
+/// rather than panicking.
+static NEXT_KERNEL_ID: AtomicU32 = AtomicU32::new(0);
+
+impl KernelId {
+    /// A kernel identity not handed out before (until the counter wraps).
+    pub(crate) fn fresh() -> Self {
+        KernelId(NEXT_KERNEL_ID.fetch_add(1, Ordering::Relaxed))
+    }
+}
+
 /// Proof that trusted code authorised clearing a latched stop or fault.
 ///
 /// It can only be made by [`Authority::enable`], and the only [`Authority`]
-/// is the one returned with the kernel by [`crate::Kernel::new`]. Code that
-/// only parses host input (the protocol crate) never holds it, so it cannot
-/// clear a fault on its own; the composition root (firmware main loop or
-/// simulator) decides to turn a host `<ENABLE>` into a capability.
+/// for a kernel is the one returned with it by [`crate::Kernel::new`]. Code
+/// that only parses host input (the protocol crate) never holds it, so it
+/// cannot clear a fault on its own; the composition root (firmware main loop
+/// or simulator) decides to turn a host `<ENABLE>` into a capability.
+///
+/// The token carries the identity of the kernel whose [`Authority`] minted
+/// it: any other kernel refuses it with [`Reject::ForeignCapability`] and
+/// clears nothing, so a second `Kernel::new` elsewhere in the program yields
+/// no power over the first.
+///
+/// It cannot be built outside the kernel crate (its field is private):
+///
+/// ```compile_fail,E0451
+/// let cap = kernel::EnableCapability { kernel: unimplemented!() };
+/// ```
+///
+/// ```compile_fail,E0599
+/// let cap = kernel::EnableCapability::default();
+/// ```
+///
+/// and it cannot be duplicated, so one token clears at most once:
+///
+/// ```compile_fail,E0599
+/// use kernel::{config::PAROL6, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// let cap = authority.enable();
+/// let again = cap.clone();
+/// ```
+///
+/// ```compile_fail,E0382
+/// use kernel::{config::PAROL6, KernelF32, Request};
+/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// let cap = authority.enable();
+/// let first: Request<f32> = Request::Enable(cap);
+/// let second: Request<f32> = Request::Enable(cap); // moved: not `Copy`
+/// ```
 #[derive(Debug)]
 pub struct EnableCapability {
-    _private: (),
+    kernel: KernelId,
 }
 
-/// The right to mint [`EnableCapability`] tokens. Not `Clone`, not `Copy`.
+impl EnableCapability {
+    /// The kernel whose [`Authority`] minted this token.
+    pub(crate) fn kernel(&self) -> KernelId {
+        self.kernel
+    }
+}
+
+/// The right to mint [`EnableCapability`] tokens for one kernel. Not
+/// `Clone`, not `Copy`, and not constructible outside the kernel crate:
+///
+/// ```compile_fail,E0451
+/// let authority = kernel::Authority { kernel: unimplemented!() };
+/// ```
+///
+/// ```compile_fail,E0599
+/// let authority = kernel::Authority::default();
+/// ```
+///
+/// ```compile_fail,E0599
+/// use kernel::{config::PAROL6, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// let copy = authority.clone();
+/// ```
+///
+/// ```compile_fail,E0382
+/// use kernel::{config::PAROL6, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// let first = authority;
+/// let second = authority; // moved: not `Copy`
+/// ```
+///
+/// A second kernel's authority is no authority over the first:
+///
+/// ```
+/// use kernel::{config::PAROL6, EncoderSample, Event, HardwareFault, KernelF32, Reject, Request, Sense, State};
+/// let (mut a, _authority_a) = KernelF32::new(&PAROL6);
+/// let (_b, authority_b) = KernelF32::new(&PAROL6);
+/// let ok = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None };
+/// a.tick(&Sense { hardware_fault: Some(HardwareFault::TickOverrun), ..ok }, None);
+/// assert_eq!(a.state(), State::Fault);
+/// let out = a.tick(&ok, Some(Request::Enable(authority_b.enable())));
+/// assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::ForeignCapability, .. })));
+/// assert_eq!(a.state(), State::Fault); // still latched
+/// ```
 #[derive(Debug)]
 pub struct Authority {
-    _private: (),
+    kernel: KernelId,
 }
 
 impl Authority {
-    pub(crate) const fn new() -> Self {
-        Authority { _private: () }
+    /// The authority of the kernel with identity `kernel`; only
+    /// [`crate::Kernel::new`] and [`crate::Kernel::fork`] call this.
+    pub(crate) const fn new(kernel: KernelId) -> Self {
+        Authority { kernel }
     }
-    /// Mints one capability to clear a latched stop or fault.
+    /// Mints one capability to clear a latched stop or fault of this
+    /// authority's kernel (and of no other).
     pub fn enable(&self) -> EnableCapability {
-        EnableCapability { _private: () }
+        EnableCapability { kernel: self.kernel }
     }
 }
 
@@ -252,6 +355,9 @@ pub enum Reject {
     NothingToClear,
     /// Enable while a fault condition is still present.
     CauseActive(FaultReason),
+    /// Enable with a capability minted by another kernel's [`Authority`]:
+    /// refused in every state, nothing is cleared.
+    ForeignCapability,
 }
 
 /// Something the host should be told about.

@@ -518,10 +518,11 @@ impl<S: Variant> Sut<S> {
             }
             Start::Homed => {
                 let s = S::homed_snapshot().clone();
-                // Any `Authority` mints capabilities for any kernel; the one
-                // from the snapshot's `Kernel::new` was not kept.
-                let (_, auth) = Kernel::<S>::new(&PAROL6);
-                Self::from_parts(s.kernel, auth, s.plant, s.mon, s.ticks)
+                // A capability works only on the kernel that minted it: the
+                // snapshot's authority was not kept, so fork it (same state,
+                // fresh identity, its own authority).
+                let (kernel, auth) = s.kernel.fork();
+                Self::from_parts(kernel, auth, s.plant, s.mon, s.ticks)
             }
         }
     }

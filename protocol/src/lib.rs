@@ -64,6 +64,18 @@ mod text;
 pub use parse::{Command, Dialect, DialectLock, ParseError, Parser};
 pub use text::{Full, Line, LINE_CAP};
 
+/// Why a line was rejected: by the framer or by the parser. Defined here,
+/// beside the two error types it wraps, so that both [`receiver`] (which
+/// produces it) and [`report`] (which words it) depend on it without
+/// depending on each other; also reachable as `receiver::Rejection`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rejection {
+    /// Over-long or non-printable line.
+    Line(framer::LineError),
+    /// Malformed, ambiguous or out-of-limits frame.
+    Frame(ParseError),
+}
+
 /// Largest line the firmware accepts from a host, in bytes without the
 /// terminator. A worst-case driver line is about 94 bytes (13 fields of up
 /// to 10 characters and 12 separators); 128 leaves room for both dialects.

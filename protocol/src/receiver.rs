@@ -1,21 +1,19 @@
 //! Framer, parser and sequence filter chained: bytes in, at most one
 //! [`Received`] per byte out.
+//!
+//! Module dependencies run one way: this module uses [`crate::report`] to
+//! word its outcomes, and `report` does not use this module ([`Rejection`]
+//! is defined at the crate root, next to the framer's and parser's errors).
 
-use crate::framer::{Framer, FramerCounters, LineError};
-use crate::parse::{Command, ParseError, Parser};
+use crate::framer::{Framer, FramerCounters};
+use crate::parse::{Command, Parser};
+use crate::report::{reject_line, resync_line, stale_line};
 use crate::seq::{Resync, SeqCounters, SeqFilter, Stale, Verdict};
 use crate::{Full, Line, ProtocolConfig, INPUT_LINE_CAP};
 use kernel::config::ArmConfig;
 use kernel::Scalar;
 
-/// Why a line was rejected: by the framer or by the parser.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Rejection {
-    /// Over-long or non-printable line.
-    Line(LineError),
-    /// Malformed, ambiguous or out-of-limits frame.
-    Frame(ParseError),
-}
+pub use crate::Rejection;
 
 /// What one line turned into.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,11 +44,9 @@ impl<S> Received<S> {
     pub fn report(&self, out: &mut Line) -> Result<bool, Full> {
         match self {
             Received::Accepted { resync: None, .. } => Ok(false),
-            Received::Accepted { resync: Some(r), .. } => crate::report::resync_line(out, r).map(|()| true),
-            Received::Rejected { rejection, count } => {
-                crate::report::reject_line(out, rejection, *count).map(|()| true)
-            }
-            Received::Dropped(s) => crate::report::stale_line(out, s).map(|()| true),
+            Received::Accepted { resync: Some(r), .. } => resync_line(out, r).map(|()| true),
+            Received::Rejected { rejection, count } => reject_line(out, rejection, *count).map(|()| true),
+            Received::Dropped(s) => stale_line(out, s).map(|()| true),
         }
     }
 }

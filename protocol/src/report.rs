@@ -11,10 +11,9 @@ use crate::feedback::FeedbackMode;
 use crate::framer::LineError;
 use crate::parse::{Dialect, DialectLock, ParseError};
 use crate::queue::QueueFull;
-use crate::receiver::Rejection;
 use crate::seq::{Resync, ResyncReason, Stale, StaleReason};
 use crate::text::{push_byte, push_hex64, push_hex8, push_i64, push_str, push_u32};
-use crate::{Command, Full, Line};
+use crate::{Command, Full, Line, Rejection};
 use kernel::config::{ArmConfig, HomingConfig, JointConfig};
 use kernel::homing::Phase;
 use kernel::{Event, FaultReason, HardwareFault, Reject, RequestKind, State};
@@ -150,6 +149,7 @@ fn kernel_reject(out: &mut Line, r: &Reject) -> Result<(), Full> {
             push_str(out, "CAUSE_ACTIVE ")?;
             fault_reason(out, &reason)
         }
+        Reject::ForeignCapability => push_str(out, "FOREIGN_CAPABILITY"),
     }
 }
 

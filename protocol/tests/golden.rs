@@ -240,6 +240,10 @@ fn event_lines() {
         }),
         "REFUSED ENABLE CAUSE_ACTIVE LIMIT_SWITCH J1"
     );
+    assert_eq!(
+        ev(Event::Rejected { request: RequestKind::Enable, reason: Reject::ForeignCapability }),
+        "REFUSED ENABLE FOREIGN_CAPABILITY"
+    );
 }
 
 #[test]
@@ -274,6 +278,7 @@ fn only_faults_and_soft_estops_reach_the_fault_log() {
         Reject::NoSuchJoint,
         Reject::DependencyNotHomed { needs: 1 },
         Reject::NothingToClear,
+        Reject::ForeignCapability,
     ];
     for r in rejects {
         for request in [RequestKind::Motion, RequestKind::Home, RequestKind::HomeJoint(5), RequestKind::Enable] {

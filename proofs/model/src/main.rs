@@ -121,6 +121,9 @@ struct Action {
 }
 
 struct Supervisor {
+    /// The initial kernel; every state holds a clone of it (same identity),
+    /// so `authority`, returned with it by `Kernel::new`, is accepted.
+    init: Kernel<Fx>,
     authority: Authority,
     here: [Fx; AXES],
 }
@@ -169,8 +172,7 @@ impl Model for Supervisor {
     type Action = Action;
 
     fn init_states(&self) -> Vec<St> {
-        let (k, _) = Kernel::new(&MODEL_CONFIG);
-        vec![St { k, violation: None, ever_enabled: false }]
+        vec![St { k: self.init.clone(), violation: None, ever_enabled: false }]
     }
 
     fn actions(&self, s: &St, actions: &mut Vec<Action>) {
@@ -304,8 +306,8 @@ fn main() {
         let j = &MODEL_CONFIG.joints[i];
         *h = h.clamp_between(Fx::from_f32(j.limit_min + 0.01), Fx::from_f32(j.limit_max - 0.01));
     }
-    let (_, authority) = Kernel::<Fx>::new(&MODEL_CONFIG);
-    let model = Supervisor { authority, here };
+    let (init, authority) = Kernel::<Fx>::new(&MODEL_CONFIG);
+    let model = Supervisor { init, authority, here };
     let started = std::time::Instant::now();
     // A cap on generated states (stateright counts every generated state, not
     // only unique ones) so that a state explosion reports instead of

@@ -1,0 +1,157 @@
+//! Command intake: at most one [`Request`] per tick, checked and applied
+//! after estimation (so it sees this tick's measurements) and before
+//! supervision (so its effect is checked in the same tick). Motion targets
+//! are validated whole ([`TargetLimits`](super::TargetLimits)) and retarget
+//! the interpolators; home and per-joint home start the sequencer; enable
+//! needs this kernel's own [`EnableCapability`](crate::EnableCapability) and
+//! no fault cause present. Each refusal is a [`Reject`]; the mode changes
+//! this causes go through `Kernel::transition`.
+
+use super::supervisor::Edge;
+use super::{bit, Kernel, ALL};
+use crate::config::AXES;
+use crate::scalar::Scalar;
+use crate::types::{
+    EncoderSample, Event, Events, FaultReason, HomingStatus, MotionTarget, Reject, Request, RequestKind, Sense, State,
+};
+
+/// Median of four values (mean of the middle two), with a fixed network of
+/// comparisons: bounded, branch-light, no indexing.
+fn median4(v: [u32; 4]) -> u32 {
+    let [a, b, c, d] = v;
+    let (a, b) = (a.min(b), a.max(b));
+    let (c, d) = (c.min(d), c.max(d));
+    let lo2 = a.max(c); // second smallest is max of the two minima or ...
+    let hi2 = b.min(d); // ... together with the min of the two maxima
+    let (m1, m2) = (lo2.min(hi2), lo2.max(hi2));
+    m1.midpoint(m2)
+}
+
+impl<S: Scalar> Kernel<S> {
+    /// Handles the tick's request, if any, and reports the outcome:
+    /// `Rejected` with the reason, or the request's own event.
+    /// `detected`: the fault found so far in this tick (blocks an enable).
+    pub(super) fn intake(
+        &mut self,
+        request: Option<Request<S>>,
+        sense: &Sense,
+        detected: Option<FaultReason>,
+        events: &mut Events,
+    ) {
+        if let Some(r) = request {
+            let kind = r.kind();
+            if let Err(reason) = self.handle(r, sense, detected) {
+                events.push(Event::Rejected { request: kind, reason });
+            } else if let Some(e) = self.request_event(kind) {
+                events.push(e);
+            }
+        }
+    }
+
+    fn request_event(&self, kind: RequestKind) -> Option<Event> {
+        match kind {
+            RequestKind::Home if self.home_queued => Some(Event::HomingQueued),
+            RequestKind::Home | RequestKind::HomeJoint(_) => Some(Event::HomingStarted { mask: self.run_mask }),
+            RequestKind::Enable => Some(Event::Enabled(self.state())),
+            RequestKind::Motion => None,
+        }
+    }
+
+    fn handle(&mut self, r: Request<S>, sense: &Sense, detected: Option<FaultReason>) -> Result<(), Reject> {
+        match r {
+            Request::Motion(t) => self.accept_motion(&t),
+            Request::Home if self.state() == State::Boot => {
+                self.home_queued = true;
+                self.homing_status = HomingStatus::InProgress;
+                Ok(())
+            }
+            Request::Home => self.start_homing(ALL),
+            Request::HomeJoint(j) => {
+                let j = usize::from(j);
+                if j >= AXES {
+                    return Err(Reject::NoSuchJoint);
+                }
+                let needs = Self::dependencies(j);
+                if self.homed & needs != needs {
+                    return Err(Reject::DependencyNotHomed { needs: needs & !self.homed });
+                }
+                self.start_homing(bit(j))
+            }
+            Request::Enable(cap) if cap.kernel() != self.id => Err(Reject::ForeignCapability),
+            Request::Enable(_) => self.enable(sense, detected),
+        }
+    }
+
+    /// Validates a target against every joint's limits; the frame is
+    /// accepted whole or not at all.
+    pub fn validate(&self, t: &MotionTarget<S>) -> Result<(), Reject> {
+        self.p.limits.check(t)
+    }
+
+    fn accept_motion(&mut self, t: &MotionTarget<S>) -> Result<(), Reject> {
+        if let Some(r) = self.mode_refusal() {
+            return Err(r);
+        }
+        self.validate(t)?;
+        // Segment length: median of recent target intervals, bounded.
+        let n = match self.since_target {
+            None => self.p.seg_max,
+            Some(gap) => {
+                // max/min rather than `clamp`, which panics if min > max: the
+                // tick must have no panic path even for a bad configuration.
+                let gap = gap.max(self.p.seg_min).min(self.p.seg_max);
+                let [_, a, b, c] = self.intervals;
+                self.intervals = if self.intervals == [0; 4] { [gap; 4] } else { [a, b, c, gap] };
+                median4(self.intervals)
+            }
+        };
+        self.since_target = Some(0);
+        let inv_n = self.p.recip.get(n as usize).copied().unwrap_or(S::ZERO);
+        for ((ax, p), target) in self.axes.iter_mut().zip(self.p.axes.iter()).zip(t.position.iter()) {
+            ax.interp.retarget(*target, inv_n, p.max_step);
+        }
+        self.armed = true;
+        self.since_cmd = 0;
+        Ok(())
+    }
+
+    /// `detected`: a fault condition found earlier in this same tick (it is
+    /// latched at the end of the tick, so it must block the enable too).
+    fn enable(&mut self, sense: &Sense, detected: Option<FaultReason>) -> Result<(), Reject> {
+        if let Some(r) = self.enable_refusal() {
+            return Err(r);
+        }
+        if let Some(cause) = detected.or_else(|| self.present_cause(sense)) {
+            return Err(Reject::CauseActive(cause));
+        }
+        // Encoders whose count was lost restart from their reading; their
+        // joints must be homed again.
+        for (i, ((ax, p), s)) in self.axes.iter_mut().zip(self.p.axes.iter()).zip(sense.encoders.iter()).enumerate() {
+            if let (true, EncoderSample::Count(c)) = (ax.needs_reinit || !ax.ready, *s) {
+                ax.init_from(c, p);
+                self.homed &= !bit(i);
+            }
+        }
+        self.fault = None;
+        self.resync();
+        self.transition(Edge::Enable);
+        if self.homed != ALL && self.homing_status == HomingStatus::Complete {
+            self.homing_status = HomingStatus::NotRequested;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median4;
+
+    #[test]
+    fn median_of_four() {
+        assert_eq!(median4([10, 10, 10, 10]), 10);
+        assert_eq!(median4([10, 20, 10, 10]), 10);
+        assert_eq!(median4([20, 10, 10, 20]), 15);
+        assert_eq!(median4([8, 40, 9, 11]), 10);
+        assert_eq!(median4([u32::MAX, u32::MAX, 1, 1]), u32::MAX / 2 + 1);
+    }
+}

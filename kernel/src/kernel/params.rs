@@ -1,0 +1,150 @@
+//! Parameters: every constant of a kernel, derived once from an
+//! [`ArmConfig`] into the kernel's scalar type ([`Params`], per axis
+//! [`AxisParams`]), and the motion-target limits shared with the protocol
+//! parser ([`TargetLimits`]). Nothing here changes after `Kernel::new`.
+
+use crate::config::{ms_to_ticks, ArmConfig, JointConfig, AXES, MAX_SEGMENT_TICKS, POSITION_ABS_MAX};
+use crate::homing::HomingParams;
+use crate::observer::ObserverGains;
+use crate::scalar::Scalar;
+use crate::types::{MotionTarget, Reject};
+
+/// Velocities beyond this magnitude (rad/s) in the observer are absurd.
+const VELOCITY_ABS_MAX: f32 = 64.0;
+
+/// The limits a motion target must respect, in the kernel's scalar type:
+/// the one check both the protocol parser and the kernel apply, so they can
+/// never disagree.
+///
+/// The configuration states limits as `f32`; each is widened outward by one
+/// `f32` ulp (~0.2 urad) before conversion so that the fixed-point variant,
+/// whose nearest value to e.g. `2.1f32` lies 1-2 LSB inside `2.1`, still
+/// accepts a command of exactly `2.100`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetLimits<S> {
+    lo: [S; AXES],
+    hi: [S; AXES],
+    vmax: [S; AXES],
+}
+
+impl<S: Scalar> TargetLimits<S> {
+    /// The limits of `config`'s joints.
+    pub fn new(config: &ArmConfig) -> Self {
+        TargetLimits {
+            lo: config.joints.map(|j| S::from_f32(j.limit_min.next_down())),
+            hi: config.joints.map(|j| S::from_f32(j.limit_max.next_up())),
+            vmax: config.joints.map(|j| S::from_f32(j.max_velocity)),
+        }
+    }
+    /// Accepts the target whole, or names the first axis and reason.
+    pub fn check(&self, t: &MotionTarget<S>) -> Result<(), Reject> {
+        let lims = self.lo.iter().zip(self.hi.iter()).zip(self.vmax.iter());
+        for (i, ((pos, vel), ((lo, hi), vmax))) in t.position.iter().zip(t.velocity.iter()).zip(lims).enumerate() {
+            let axis = i as u8;
+            if !(pos.is_finite() && vel.is_finite()) {
+                return Err(Reject::NonFinite { axis });
+            }
+            if pos < lo || pos > hi {
+                return Err(Reject::PositionOutOfLimits { axis });
+            }
+            if vel.abs() > *vmax {
+                return Err(Reject::VelocityTooHigh { axis });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Per-axis constants in the kernel's scalar type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AxisParams<S: Scalar> {
+    pub vmax: S,
+    pub max_step: S,
+    pub runaway: S,
+    pub kp: S,
+    /// Largest velocity change per tick in Operational.
+    pub accel_step: S,
+    pub pos_lo: S,
+    pub pos_hi: S,
+    pub k_count: S::Wide,
+    pub k_rate: S::Wide,
+    pub enc_sign: i32,
+    pub max_jump: i32,
+    pub switch_position: S,
+    pub homing: HomingParams<S>,
+}
+
+impl<S: Scalar> AxisParams<S> {
+    fn new(j: &JointConfig, c: &ArmConfig) -> Self {
+        let dir = j.homing.direction.sign();
+        let motor = if j.motor_reversed { -1.0 } else { 1.0 };
+        AxisParams {
+            vmax: S::from_f32(j.max_velocity),
+            max_step: S::from_f32(j.max_velocity / c.tick_hz as f32),
+            runaway: S::from_f32(j.runaway_velocity),
+            kp: S::from_f32(j.kp),
+            accel_step: S::from_f32(j.max_acceleration / c.tick_hz as f32),
+            pos_lo: S::from_f32(j.limit_min - c.position_margin),
+            pos_hi: S::from_f32(j.limit_max + c.position_margin),
+            k_count: S::wide_from_f64(j.rad_per_count()),
+            k_rate: S::wide_from_f64(j.steps_per_rad() * motor),
+            enc_sign: if j.encoder_reversed { -1 } else { 1 },
+            max_jump: j.max_jump_counts(c.tick_hz),
+            switch_position: S::from_f32(j.homing.switch_position),
+            homing: HomingParams {
+                fast_toward: S::from_f32(j.homing.fast_speed * dir),
+                slow_toward: S::from_f32(j.homing.slow_speed * dir),
+                backoff: S::from_f32(j.homing.backoff),
+                timeout_ticks: ms_to_ticks(j.homing.timeout_ms, c.tick_hz),
+            },
+        }
+    }
+}
+
+/// All constants of a kernel, derived once from an [`ArmConfig`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Params<S: Scalar> {
+    pub axes: [AxisParams<S>; AXES],
+    pub limits: TargetLimits<S>,
+    pub gains: ObserverGains<S>,
+    pub tick_hz: i32,
+    pub deadband: S,
+    pub timeout_ticks: u32,
+    pub stop_ticks: u32,
+    pub inv_stop: S,
+    pub seg_min: u32,
+    pub seg_max: u32,
+    /// `recip[n] = 1/n` (index 0 unused).
+    pub recip: [S; MAX_SEGMENT_TICKS as usize + 1],
+    pub boot_ticks: u32,
+    pub invalid_limit: u32,
+    pub pos_abs: S,
+    pub vel_abs: S,
+}
+
+impl<S: Scalar> Params<S> {
+    pub(crate) fn new(c: &ArmConfig) -> Self {
+        let stop_ticks = ms_to_ticks(c.soft_stop_ms, c.tick_hz).max(1);
+        Params {
+            axes: c.joints.map(|j| AxisParams::new(&j, c)),
+            limits: TargetLimits::new(c),
+            gains: ObserverGains {
+                alpha: S::from_f32(c.alpha),
+                beta_hz: S::from_f32(c.beta * c.tick_hz as f32),
+                dt: S::from_f32(1.0 / c.tick_hz as f32),
+            },
+            tick_hz: i32::try_from(c.tick_hz).unwrap_or(1000),
+            deadband: S::from_f32(c.deadband),
+            timeout_ticks: ms_to_ticks(c.command_timeout_ms, c.tick_hz),
+            stop_ticks,
+            inv_stop: S::from_f32(1.0 / stop_ticks as f32),
+            seg_min: ms_to_ticks(c.segment_min_ms, c.tick_hz).max(1),
+            seg_max: ms_to_ticks(c.segment_max_ms, c.tick_hz).max(1).min(MAX_SEGMENT_TICKS),
+            recip: core::array::from_fn(|n| if n == 0 { S::ZERO } else { S::from_f32(1.0 / n as f32) }),
+            boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
+            invalid_limit: c.encoder_invalid_limit,
+            pos_abs: S::from_f32(POSITION_ABS_MAX),
+            vel_abs: S::from_f32(VELOCITY_ABS_MAX),
+        }
+    }
+}

@@ -1,0 +1,300 @@
+//! The supervisor: the state machine ([`Mode`], shown to the outside as
+//! [`State`]) and the fault checks.
+//!
+//! Every change of mode is made by one function, [`Kernel::transition`],
+//! from one of the [`Edge`]s below; nothing else in the crate assigns the
+//! mode. What each state refuses is stated here too ([`Kernel::mode_refusal`],
+//! [`Kernel::homing_refusal`], [`Kernel::enable_refusal`]), so the whole
+//! machine can be audited in this file:
+//!
+//! | edge | from | to | caller |
+//! |---|---|---|---|
+//! | `Ready` | Boot | Unhomed | [`Kernel::boot`]: every encoder read once |
+//! | `Timeout` | Operational | Stopping (k = 0, from the last outputs) | [`Kernel::supervise`]: command timeout |
+//! | `RampTick` | Stopping | Stopping (k + 1), or SoftEstop at k = N | [`Kernel::supervise`]: each ramp tick |
+//! | `StartHoming` | Unhomed, Operational, SoftEstop | Homing | `start_homing` (homing sequencer) |
+//! | `HomingDone` | Homing | Operational if every joint is homed, else Unhomed | `finish_homing` (homing sequencer) |
+//! | `Enable` | Fault, SoftEstop | Operational if every joint is homed, else Unhomed | `enable` (command intake) |
+//! | `Fault` | any but Fault | Fault | [`Kernel::enter_fault`] |
+
+use super::{bit, Kernel, ALL};
+use crate::config::{AXES, COUNTS_PER_REV};
+use crate::scalar::Scalar;
+use crate::types::{EncoderSample, Event, Events, Fault, FaultReason, HomingStatus, Reject, Sense, State};
+
+/// The supervisor's mode: [`State`] plus the soft-stop ramp's progress.
+#[derive(Clone, Copy, Debug, PartialEq, Hash)]
+pub(super) enum Mode<S> {
+    Boot,
+    Unhomed,
+    Homing,
+    Operational,
+    Stopping { k: u32, v0: [S; AXES] },
+    SoftEstop,
+    Fault,
+}
+
+/// An edge of the state machine: the reason for a change of mode (the
+/// table in the module documentation gives each one's source and target).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Edge {
+    /// Boot -> Unhomed.
+    Ready,
+    /// Operational -> Stopping.
+    Timeout,
+    /// Stopping -> Stopping (one more ramp tick) or SoftEstop.
+    RampTick,
+    /// Unhomed, Operational, SoftEstop -> Homing.
+    StartHoming,
+    /// Homing -> Operational or Unhomed.
+    HomingDone,
+    /// Fault, SoftEstop -> Operational or Unhomed.
+    Enable,
+    /// Any -> Fault.
+    Fault,
+}
+
+impl<S: Scalar> Kernel<S> {
+    /// Current supervisor state.
+    pub fn state(&self) -> State {
+        match self.mode {
+            Mode::Boot => State::Boot,
+            Mode::Unhomed => State::Unhomed,
+            Mode::Homing => State::Homing,
+            Mode::Operational => State::Operational,
+            Mode::Stopping { .. } => State::Stopping,
+            Mode::SoftEstop => State::SoftEstop,
+            Mode::Fault => State::Fault,
+        }
+    }
+
+    /// **The** mode change: the only assignment of the mode in the crate.
+    /// Returns the new state. Callers check the mode before they fire an
+    /// edge (the refusals below); an edge fired from a state it does not
+    /// leave keeps the mode (never reached; total rather than panicking).
+    pub(super) fn transition(&mut self, edge: Edge) -> State {
+        let next = match (edge, self.mode) {
+            (Edge::Ready, Mode::Boot) => Mode::Unhomed,
+            (Edge::Timeout, Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out },
+            (Edge::RampTick, Mode::Stopping { k, v0 }) => {
+                let k = k.saturating_add(1);
+                if k >= self.p.stop_ticks {
+                    Mode::SoftEstop
+                } else {
+                    Mode::Stopping { k, v0 }
+                }
+            }
+            (Edge::StartHoming, Mode::Unhomed | Mode::Operational | Mode::SoftEstop) => Mode::Homing,
+            (Edge::HomingDone, Mode::Homing) | (Edge::Enable, Mode::Fault | Mode::SoftEstop) => {
+                if self.homed == ALL {
+                    Mode::Operational
+                } else {
+                    Mode::Unhomed
+                }
+            }
+            (Edge::Fault, _) => Mode::Fault,
+            (_, unchanged) => unchanged,
+        };
+        self.mode = next;
+        self.state()
+    }
+
+    /// Why a motion command is refused in the current state (SR-15).
+    pub(super) fn mode_refusal(&self) -> Option<Reject> {
+        match self.mode {
+            Mode::Boot => Some(Reject::Booting),
+            Mode::Unhomed => Some(Reject::NotHomed),
+            Mode::Homing => Some(Reject::Homing),
+            Mode::Operational => None,
+            Mode::Stopping { .. } => Some(Reject::Stopping),
+            Mode::SoftEstop | Mode::Fault => Some(Reject::Latched),
+        }
+    }
+
+    /// Why homing cannot start in the current state (`Edge::StartHoming`).
+    pub(super) fn homing_refusal(&self) -> Option<Reject> {
+        match self.mode {
+            Mode::Boot => Some(Reject::Booting),
+            Mode::Homing => Some(Reject::Homing),
+            Mode::Stopping { .. } => Some(Reject::Stopping),
+            Mode::Fault => Some(Reject::Latched),
+            Mode::Unhomed | Mode::Operational | Mode::SoftEstop => None,
+        }
+    }
+
+    /// Why an enable has nothing to do in the current state (`Edge::Enable`
+    /// leaves only Fault and SoftEstop); the fault causes are checked after.
+    pub(super) fn enable_refusal(&self) -> Option<Reject> {
+        match self.mode {
+            Mode::Fault | Mode::SoftEstop => None,
+            Mode::Stopping { .. } => Some(Reject::Stopping),
+            _ => Some(Reject::NothingToClear),
+        }
+    }
+
+    /// Boot: leave it when every encoder has been read once (and start a
+    /// queued `<HOME>`), or fault when that takes longer than the boot
+    /// timeout.
+    pub(super) fn boot(&mut self, fault: &mut Option<FaultReason>, events: &mut Events) {
+        if self.mode == Mode::Boot {
+            if self.axes.iter().all(|a| a.ready) {
+                self.transition(Edge::Ready);
+                events.push(Event::Ready);
+                if self.home_queued {
+                    self.home_queued = false;
+                    if self.start_homing(ALL).is_ok() {
+                        events.push(Event::HomingStarted { mask: ALL });
+                    }
+                }
+            } else {
+                self.boot_ticks = self.boot_ticks.saturating_add(1);
+                if self.boot_ticks > self.p.boot_ticks {
+                    let axis = self.axes.iter().position(|a| !a.ready).unwrap_or(0);
+                    fault.get_or_insert(FaultReason::EncoderNotReady { axis: axis as u8 });
+                }
+            }
+        }
+    }
+
+    /// Step 3: candidate outputs for every axis in the current mode
+    /// (Operational: follow, or start the soft stop on the command timeout;
+    /// Homing: the sequencer; Stopping: the ramp; otherwise zero), then the
+    /// checks of every state. Not yet latched.
+    pub(super) fn supervise(&mut self, limits: u8, fault: &mut Option<FaultReason>, events: &mut Events) -> [S; AXES] {
+        let mut out = [S::ZERO; AXES];
+        let mut homing_event = None;
+        match self.mode {
+            Mode::Operational => {
+                if self.armed {
+                    self.since_cmd = self.since_cmd.saturating_add(1);
+                }
+                if self.armed && self.since_cmd > self.p.timeout_ticks {
+                    self.transition(Edge::Timeout);
+                    let ms =
+                        self.since_cmd.saturating_mul(1000).checked_div(self.p.tick_hz.unsigned_abs()).unwrap_or(0);
+                    events.push(Event::SoftEstop { since_command_ms: ms });
+                } else {
+                    self.follow(&mut out, fault);
+                }
+            }
+            Mode::Homing => homing_event = self.home_step(limits, &mut out, fault),
+            _ => {}
+        }
+        if let Mode::Stopping { k, v0 } = self.mode {
+            self.ramp(k.saturating_add(1), &v0, &mut out);
+            if self.transition(Edge::RampTick) == State::SoftEstop {
+                events.push(Event::Stopped);
+            }
+        }
+        if let Some(e) = homing_event {
+            events.push(e);
+        }
+        self.check(limits, &out, fault);
+        out
+    }
+
+    /// Soft E-stop ramp: `v0 * (N - k) / N`, never above the previous output
+    /// in magnitude, exactly zero from `k = N` on.
+    fn ramp(&self, k: u32, v0: &[S; AXES], out: &mut [S; AXES]) {
+        let n = self.p.stop_ticks;
+        let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
+        let scale = self.p.inv_stop.times_int(left).min(S::ONE).max(S::ZERO);
+        for ((o, v), prev) in out.iter_mut().zip(v0.iter()).zip(self.last_out.iter()) {
+            let r = v.times(scale).clamp_between(S::ZERO, *prev);
+            let r = S::select(r.is_finite(), r, S::ZERO);
+            *o = S::select(k >= n, S::ZERO, r);
+        }
+    }
+
+    /// Checks that apply in every state, and the outputs themselves.
+    fn check(&self, limits: u8, out: &[S; AXES], fault: &mut Option<FaultReason>) {
+        let limit_is_fault = matches!(self.mode, Mode::Operational | Mode::Stopping { .. } | Mode::SoftEstop);
+        for (i, ((ax, p), o)) in self.axes.iter().zip(self.p.axes.iter()).zip(out.iter()).enumerate() {
+            let axis = i as u8;
+            let pressed = limits & bit(i) != 0;
+            if ax.ready && ax.obs.v.abs() > p.runaway {
+                fault.get_or_insert(FaultReason::Runaway { axis });
+            }
+            // During homing a switch is the homing input of a seeking axis
+            // and expected on axes not yet homed; on a homed axis at rest it
+            // means something moved it.
+            let homed_still = self.homed & bit(i) != 0 && !ax.homing.phase().is_moving();
+            if pressed && (limit_is_fault || (self.mode == Mode::Homing && homed_still)) {
+                fault.get_or_insert(FaultReason::LimitSwitch { axis });
+            }
+            let homed_moving = matches!(self.mode, Mode::Operational | Mode::Stopping { .. });
+            if homed_moving && (ax.obs.x < p.pos_lo || ax.obs.x > p.pos_hi) {
+                fault.get_or_insert(FaultReason::PositionLimit { axis });
+            }
+            if !(o.is_finite() && o.abs() <= p.vmax) {
+                fault.get_or_insert(FaultReason::Numeric { axis });
+            }
+        }
+    }
+
+    /// Latches the tick's first fault (unless one is latched already) and,
+    /// in Fault, zeroes every output in the same tick (SR-4).
+    pub(super) fn latch(&mut self, fault: Option<FaultReason>, out: &mut [S; AXES], events: &mut Events) {
+        if let Some(reason) = fault {
+            if self.mode != Mode::Fault {
+                self.enter_fault(reason);
+                events.push(Event::Fault(reason));
+            }
+        }
+        if self.mode == Mode::Fault {
+            *out = [S::ZERO; AXES];
+        }
+    }
+
+    fn enter_fault(&mut self, reason: FaultReason) {
+        if self.mode == Mode::Homing || self.home_queued {
+            self.home_queued = false;
+            self.homing_status = HomingStatus::Failed;
+            // Axes of the aborted run are not homed.
+            self.homed &= !self.run_mask;
+            for ax in self.axes.iter_mut() {
+                ax.homing.reset(false);
+            }
+            self.run_mask = 0;
+        }
+        for (i, ax) in self.axes.iter().enumerate() {
+            if ax.needs_reinit {
+                self.homed &= !bit(i);
+            }
+        }
+        if self.homed != ALL && self.homing_status == HomingStatus::Complete {
+            self.homing_status = HomingStatus::NotRequested;
+        }
+        self.fault = Some(Fault { reason, tick: self.tick });
+        self.transition(Edge::Fault);
+        self.resync();
+    }
+
+    /// The first fault condition present right now, if any.
+    pub(super) fn present_cause(&self, sense: &Sense) -> Option<FaultReason> {
+        if let Some(h) = sense.hardware_fault {
+            return Some(FaultReason::Hardware(h));
+        }
+        for (i, ((ax, p), s)) in self.axes.iter().zip(self.p.axes.iter()).zip(sense.encoders.iter()).enumerate() {
+            let axis = i as u8;
+            let valid = matches!(*s, EncoderSample::Count(c) if i32::from(c) < COUNTS_PER_REV);
+            if !valid {
+                return Some(FaultReason::EncoderLost { axis });
+            }
+            if sense.limits & bit(i) != 0 {
+                return Some(FaultReason::LimitSwitch { axis });
+            }
+            // An axis whose count was lost has a frozen estimate: enable
+            // re-initialises it from the reading at rest, so its stale
+            // velocity is no cause (it blocked enable forever otherwise).
+            if !ax.needs_reinit && ax.obs.v.abs() > p.vmax {
+                return Some(FaultReason::Runaway { axis });
+            }
+            let homed = self.homed & bit(i) != 0 && !ax.needs_reinit;
+            if homed && (ax.obs.x < p.pos_lo || ax.obs.x > p.pos_hi) {
+                return Some(FaultReason::PositionLimit { axis });
+            }
+        }
+        None
+    }
+}
