@@ -1,0 +1,53 @@
+//! `twin boot [ms]`: boot the image, print Serial1 output and figures.
+//! `twin home [ms]`: boot, send `<HOME>`, print joint angles and STEP counts.
+
+use std::time::Instant;
+
+use twin::{load_image, Plant, Twin, MS};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let cmd = args.get(1).map(String::as_str).unwrap_or("boot");
+    let ms: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200);
+    if let Err(e) = run(cmd, ms) {
+        eprintln!("twin: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cmd: &str, ms: u64) -> Result<(), String> {
+    let elf = load_image()?;
+    let mut t = Twin::new(&elf, Plant::parol6())?;
+    let wall = Instant::now();
+    match cmd {
+        "boot" => {
+            t.run_until(ms * MS).map_err(|f| f.to_string())?;
+        }
+        "home" => {
+            t.run_until(100 * MS).map_err(|f| f.to_string())?;
+            t.board_mut().serial_send(b"<HOME>\n");
+            t.run_until((100 + ms) * MS).map_err(|f| f.to_string())?;
+            println!("q = {:?}", t.board().plant.q());
+            println!("STEP pulses = {:?}", t.board().step_pulses());
+        }
+        other => return Err(format!("unknown command {other} (boot | home)")),
+    }
+    let secs = wall.elapsed().as_secs_f64();
+    let b = t.board();
+    for line in b.serial_text().lines() {
+        println!("serial1> {line}");
+    }
+    println!(
+        "simulated {:.1} ms = {} instructions in {:.2} s wall ({:.4} x real time, {:.1} M instr/s)",
+        b.now as f64 / MS as f64,
+        b.now,
+        secs,
+        b.now as f64 / MS as f64 / 1000.0 / secs,
+        b.now as f64 / secs / 1e6
+    );
+    println!(
+        "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}",
+        t.stats.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched
+    );
+    Ok(())
+}
