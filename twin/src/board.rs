@@ -155,6 +155,14 @@ pub struct Board {
     pub trace: [u32; 16],
     /// Next slot of `trace`.
     pub trace_i: usize,
+    /// Address of `main` (the image's entry after the runtime's reset code).
+    pub main_addr: u32,
+    /// Times (cycles) at which `main` was entered, one per boot.
+    pub main_at: Vec<u64>,
+    /// Test control, not hardware: drive every FlexPWM fault input to its
+    /// inactive level regardless of XBAR/FLVL (shows what the image would
+    /// do with the faults disarmed).
+    pub faults_forced_inactive: bool,
 }
 
 impl Board {
@@ -184,6 +192,9 @@ impl Board {
             hints_patched: 0,
             trace: [0; 16],
             trace_i: 0,
+            main_addr: u32::MAX,
+            main_at: Vec::new(),
+            faults_forced_inactive: false,
         };
         b.reset_peripherals();
         b
@@ -198,7 +209,9 @@ impl Board {
         self.pit_mcr = 0x2;
         // After the boot ROM the RTWDOG is disabled (the twin's assumption).
         self.wdog = Wdog { cs: 0x2120, toval: 0x0400, ..Wdog::default() };
-        self.uart = Uart::default();
+        // the wire's history (what a terminal saw) survives the reset
+        let out = std::mem::take(&mut self.uart.tx_out);
+        self.uart = Uart { tx_out: out, ..Uart::default() };
         self.uart.r[1] = 0x0202; // PARAM: 4-entry FIFOs
         self.tmr = Default::default();
         for p in self.pwm.iter_mut() {
@@ -294,11 +307,8 @@ impl Board {
             if gpr & (1 << bit) != 0 || (alt != 5 && !sion) {
                 continue;
             }
-            let level = if alt == 5 && g.gdir & (1 << bit) != 0 {
-                g.dr & (1 << bit) != 0
-            } else {
-                self.external_level(p)
-            };
+            let level =
+                if alt == 5 && g.gdir & (1 << bit) != 0 { g.dr & (1 << bit) != 0 } else { self.external_level(p) };
             if level {
                 v |= 1 << bit;
             }
@@ -346,6 +356,40 @@ impl Board {
         r
     }
 
+    /// One line per axis: the FlexPWM state of its STEP output.
+    pub fn step_report(&self) -> Vec<String> {
+        (0..6)
+            .map(|i| {
+                let pin = WIRING.step[i];
+                let Some(p) = pads::teensy_pad(pin) else { return format!("J{} pin {pin}: unknown", i + 1) };
+                let Some((m, s, b, _)) = pads::pwm_function(p) else {
+                    return format!("J{} pin {pin}: no PWM", i + 1);
+                };
+                let pw = &self.pwm[m - 1];
+                let sm = &pw.sm[s];
+                let bit = if b { 4 + s } else { 8 + s };
+                format!(
+                    "J{} pin {pin} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL3={} LDOK={} dropped-writes={} pulses={}",
+                    i + 1,
+                    self.pin_function(pin),
+                    u8::from(pw.mctrl & (1 << (8 + s)) != 0),
+                    u8::from(pw.outen & (1 << bit) != 0),
+                    u8::from(pw.mask & (1 << bit) != 0),
+                    pw.fault_disabled(s, usize::from(b)),
+                    pw.fctrl,
+                    pw.read(0x18E),
+                    sm.dismap0(),
+                    sm.prsc,
+                    sm.val[1],
+                    sm.val[3],
+                    u8::from(pw.mctrl & (1 << s) != 0),
+                    sm.dropped_writes,
+                    sm.log[usize::from(b)].pulses
+                )
+            })
+            .collect()
+    }
+
     /// STEP pulses seen on each axis's STEP pin since power-on.
     pub fn step_pulses(&self) -> [u64; 6] {
         core::array::from_fn(|i| {
@@ -366,7 +410,9 @@ impl Board {
         // fault inputs from XBARA1 (input 0 = LOGIC_LOW, 1 = LOGIC_HIGH)
         for (m, outs) in FAULT_XBAR.iter().enumerate() {
             for (f, &o) in outs.iter().enumerate() {
-                self.pwm[m].fault_in[f] = self.xbar[o] == 1;
+                let level = self.xbar[o] == 1;
+                let flvl = self.pwm[m].fctrl & (1 << (12 + f)) != 0;
+                self.pwm[m].fault_in[f] = if self.faults_forced_inactive { !flvl } else { level };
             }
         }
         let routes = self.pwm_routes();
@@ -612,22 +658,18 @@ impl Board {
                 }
                 self.uart.r[2] = v;
             }
-            0x14 => {
-                if v & (1 << 19) != 0 {
-                    self.uart.or = false;
+            0x14 if v & (1 << 19) != 0 => self.uart.or = false,
+            0x14 => {}
+            0x1C if self.uart.r[6] & (1 << 19) != 0 => {
+                if self.uart.tx_fifo.is_empty() && self.uart.tx_busy_until <= self.now {
+                    let done = self.now + self.uart_byte_cycles();
+                    self.uart.tx_out.push((done, v as u8));
+                    self.uart.tx_busy_until = done;
+                } else if self.uart.tx_fifo.len() < 4 {
+                    self.uart.tx_fifo.push_back(v as u8);
                 }
             }
-            0x1C => {
-                if self.uart.r[6] & (1 << 19) != 0 {
-                    if self.uart.tx_fifo.is_empty() && self.uart.tx_busy_until <= self.now {
-                        let done = self.now + self.uart_byte_cycles();
-                        self.uart.tx_out.push((done, v as u8));
-                        self.uart.tx_busy_until = done;
-                    } else if self.uart.tx_fifo.len() < 4 {
-                        self.uart.tx_fifo.push_back(v as u8);
-                    }
-                }
-            }
+            0x1C => {}
             o if (o / 4) < 12 => self.uart.r[(o / 4) as usize] = v,
             _ => {}
         }
@@ -832,11 +874,7 @@ impl Board {
                             }
                             ch.tctrl = v & 7;
                         }
-                        0xC => {
-                            if v & 1 != 0 {
-                                ch.tif = false;
-                            }
-                        }
+                        0xC if v & 1 != 0 => ch.tif = false,
                         _ => {}
                     }
                 }

@@ -28,9 +28,7 @@ fn u16_at(b: &[u8], o: usize) -> Result<u16, String> {
     b.get(o..o + 2).map(|s| u16::from_le_bytes([s[0], s[1]])).ok_or_else(|| format!("ELF truncated at {o}"))
 }
 fn u32_at(b: &[u8], o: usize) -> Result<u32, String> {
-    b.get(o..o + 4)
-        .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-        .ok_or_else(|| format!("ELF truncated at {o}"))
+    b.get(o..o + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]])).ok_or_else(|| format!("ELF truncated at {o}"))
 }
 
 impl Image {

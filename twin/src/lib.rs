@@ -29,3 +29,13 @@ pub fn load_image() -> Result<Vec<u8>, String> {
     });
     std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
 }
+
+/// Joint angles the tests and the CLI start from (rad): inside every
+/// joint's limits, off every switch, each encoder at a distinct count.
+pub const START_Q: [f64; 6] = [0.3, -0.2, 0.5, 1.0, -1.0, 2.0];
+
+/// Load the Serial1 image into a fresh twin with the arm at [`START_Q`].
+pub fn boot_twin() -> Result<Twin, String> {
+    let elf = load_image()?;
+    Twin::new(&elf, Plant::new(&kernel::config::PAROL6, START_Q))
+}

@@ -49,8 +49,6 @@ pub struct Stats {
     pub pit_entries: Vec<u64>,
     /// Chip resets by the watchdog.
     pub watchdog_resets: u64,
-    /// First time the PC reached `main` (cycles), per boot.
-    pub main_at: Vec<u64>,
 }
 
 /// The twin: CPU + board.
@@ -66,7 +64,6 @@ pub struct Twin {
     next_pc: Option<u64>,
     /// Harness statistics.
     pub stats: Stats,
-    main_addr: u32,
 }
 
 fn count_thumb(code: &[u8]) -> u64 {
@@ -129,6 +126,10 @@ impl Twin {
             let b = uc.get_data_mut();
             b.now += n;
             b.trace[b.trace_i & 15] = addr as u32;
+            if addr as u32 == b.main_addr {
+                let now = b.now;
+                b.main_at.push(now);
+            }
             b.trace_i = b.trace_i.wrapping_add(1);
             if b.now >= b.stop_at || addr == SENTINEL {
                 let _ = uc.emu_stop();
@@ -170,8 +171,9 @@ impl Twin {
             eprintln!("IVT entry {ivt_entry:#x} sp {boot_sp:#x} pc {boot_pc:#x}");
         }
         let main_addr = image.symbols.get("main").copied().unwrap_or(u32::MAX);
+        uc.get_data_mut().main_addr = main_addr;
         let mut t =
-            Twin { uc, image, boot_sp, boot_pc, reset_ctx, in_handler: None, next_pc: None, stats: Stats::default(), main_addr };
+            Twin { uc, image, boot_sp, boot_pc, reset_ctx, in_handler: None, next_pc: None, stats: Stats::default() };
         t.cpu_reset()?;
         Ok(t)
     }
@@ -235,11 +237,9 @@ impl Twin {
             }
             b.stop_at = stop.max(now + 1);
             let pc = self.next_pc.take().unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0));
-            if std::env::var_os("TWIN_DEBUG").is_some() && now < 100_000 || std::env::var_os("TWIN_DEBUG_ALL").is_some() {
+            if std::env::var_os("TWIN_DEBUG").is_some() && now < 100_000 || std::env::var_os("TWIN_DEBUG_ALL").is_some()
+            {
                 eprintln!("start at {pc:#x} now {now} stop {}", self.board().stop_at);
-            }
-            if pc as u32 == self.main_addr && self.stats.main_at.len() <= self.stats.watchdog_resets as usize {
-                self.stats.main_at.push(now);
             }
             let r = self.uc.emu_start(pc | 1, SENTINEL, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
@@ -265,8 +265,8 @@ impl Twin {
         let sp = self.uc.reg_read(RegisterARM::SP).unwrap_or(0);
         // the hardware frame with lazily stacked FP context: 104 bytes, 8-aligned
         let nsp = (sp - 104) & !7;
-        let ok = self.uc.reg_write(RegisterARM::SP, nsp).is_ok()
-            && self.uc.reg_write(RegisterARM::LR, SENTINEL | 1).is_ok();
+        let ok =
+            self.uc.reg_write(RegisterARM::SP, nsp).is_ok() && self.uc.reg_write(RegisterARM::LR, SENTINEL | 1).is_ok();
         self.next_pc = Some(u64::from(handler & !1));
         if !ok {
             return Err(self.fault("cannot enter the PIT handler".into()));

@@ -17,7 +17,10 @@ fn main() {
 
 fn run(cmd: &str, ms: u64) -> Result<(), String> {
     let elf = load_image()?;
-    let mut t = Twin::new(&elf, Plant::parol6())?;
+    let mut t = Twin::new(&elf, Plant::new(&kernel::config::PAROL6, [0.3, -0.2, 0.5, 1.0, -1.0, 2.0]))?;
+    if std::env::var_os("TWIN_FAULTS_INACTIVE").is_some() {
+        t.board_mut().faults_forced_inactive = true;
+    }
     let wall = Instant::now();
     match cmd {
         "boot" => {
@@ -29,6 +32,9 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
             t.run_until((100 + ms) * MS).map_err(|f| f.to_string())?;
             println!("q = {:?}", t.board().plant.q());
             println!("STEP pulses = {:?}", t.board().step_pulses());
+            for l in t.board().step_report() {
+                println!("{l}");
+            }
         }
         other => return Err(format!("unknown command {other} (boot | home)")),
     }
@@ -47,7 +53,7 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
     );
     println!(
         "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}",
-        t.stats.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched
+        b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched
     );
     Ok(())
 }

@@ -130,9 +130,12 @@ pub const fn pwm_function(p: Pad) -> Option<(usize, usize, bool, u32)> {
     }
 }
 
-/// QuadTimer input on a pad: (module 1..4, channel, ALT, daisy register
+/// A QuadTimer input on a pad: (module 1..4, channel, ALT, daisy register
 /// offset and the value selecting this pad, if the input has a daisy).
-pub const fn qtimer_function(p: Pad) -> Option<(usize, usize, u32, Option<(u32, u32)>)> {
+pub type QtimerInput = (usize, usize, u32, Option<(u32, u32)>);
+
+/// QuadTimer input on a pad.
+pub const fn qtimer_function(p: Pad) -> Option<QtimerInput> {
     use Group::*;
     match (p.group, p.index) {
         (B0, 0) => Some((1, 0, 1, None)),

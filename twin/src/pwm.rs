@@ -18,8 +18,9 @@
 //! = 0 (reset) means logic 0 is a fault; `SMDISMAP0` resets to `0xFFFF`
 //! (every fault disables A and B). A fault sets `FSTS0[FFLAG]` while its input
 //! is active (writing 1 clears it only if the input is inactive). Output
-//! disabled while any mapped fault flag is set; re-enabled at the next
-//! full cycle (`FFULL`) or at once.
+//! disabled while any mapped fault flag is set or its input is active;
+//! re-enabled as soon as both are clear (the `FFULL`/`FHALF` recovery
+//! timing and `FSAFE`/`FAUTO` differences are not modelled).
 //!
 //! Not modelled: complementary mode, dead time, half-cycle reloads, `LDFQ`,
 //! fractional delay, input capture, DMA/interrupts, `DBGEN` (the core never
@@ -127,7 +128,7 @@ pub struct FlexPwm {
     pub mctrl: u16,
     /// FCTRL0.
     pub fctrl: u16,
-    /// FSTS0 flag bits (FFLAG 0..3) and FFULL/FHALF as written.
+    /// FSTS0: FFLAG (3:0) and FFULL (7:4) / FHALF (15:12) as written.
     pub fsts: u16,
     /// Other module registers.
     pub other: [u16; 0x10],
@@ -163,7 +164,7 @@ impl FlexPwm {
 
     /// Fault input `i` active (its level equals FLVL).
     fn fault_active(&self, i: usize) -> bool {
-        let flvl = self.fctrl & (1 << (8 + i)) != 0;
+        let flvl = self.fctrl & (1 << (12 + i)) != 0; // FCTRL0[FLVL] bits 15:12
         self.fault_in[i] == flvl
     }
 
@@ -283,6 +284,7 @@ impl FlexPwm {
             0x18C => self.fctrl,
             0x18E => {
                 let pins: u16 = (0..4).map(|i| u16::from(self.fault_in[i]) << (8 + i)).sum();
+                // FFLAG 3:0, FFULL 7:4 (as written), FFPIN 11:8, FHALF 15:12
                 (self.fsts & 0x00FF) | pins | (self.fsts & 0xF000)
             }
             _ => self.other[((off - 0x180) / 2) as usize & 0xF],
@@ -375,7 +377,7 @@ impl FlexPwm {
                         self.fsts &= !(1 << i);
                     }
                 }
-                self.fsts = (self.fsts & 0x000F) | (v & 0xF000);
+                self.fsts = (self.fsts & 0x000F) | (v & 0xF0F0);
             }
             _ => self.other[((off - 0x180) / 2) as usize & 0xF] = v,
         }
