@@ -151,6 +151,10 @@ pub struct Board {
     pub stop_at: u64,
     /// Hint instructions (YIELD/WFE/WFI/SEV) patched to NOP.
     pub hints_patched: u64,
+    /// Block at which the last stop was requested.
+    pub stopped_at: Option<u32>,
+    /// Stops deferred because the CPU was inside an IT block.
+    pub it_deferred: u64,
     /// Last translated-block addresses (diagnostics).
     pub trace: [u32; 16],
     /// Next slot of `trace`.
@@ -190,6 +194,8 @@ impl Board {
             unmodelled: HashMap::new(),
             stop_at: 0,
             hints_patched: 0,
+            it_deferred: 0,
+            stopped_at: None,
             trace: [0; 16],
             trace_i: 0,
             main_addr: u32::MAX,

@@ -47,6 +47,9 @@ pub struct Stats {
     pub pit_calls: u64,
     /// Time (cycles) of each PIT handler entry (bounded).
     pub pit_entries: Vec<u64>,
+    /// Stops where the CPU did not halt at the block that requested the
+    /// stop (would mean a miscounted block; expected 0).
+    pub stop_mismatch: u64,
     /// Chip resets by the watchdog.
     pub watchdog_resets: u64,
 }
@@ -124,15 +127,27 @@ impl Twin {
                 count_thumb(&code)
             });
             let b = uc.get_data_mut();
+            if b.now >= b.stop_at || addr == SENTINEL {
+                // Never stop inside an IT block: restarting writes the PC,
+                // which loses ITSTATE (the rest of the block would run
+                // unconditionally). Stop at the next block instead.
+                let xpsr = uc.reg_read(RegisterARM::XPSR).unwrap_or(0);
+                if xpsr & 0x0600_FC00 == 0 {
+                    // Unicorn stops before this block's body runs; it is
+                    // counted when it runs after the restart.
+                    let _ = uc.emu_stop();
+                    uc.get_data_mut().stopped_at = Some(addr as u32);
+                    return;
+                }
+                uc.get_data_mut().it_deferred += 1;
+            }
+            let b = uc.get_data_mut();
             b.now += n;
             b.trace[b.trace_i & 15] = addr as u32;
+            b.trace_i = b.trace_i.wrapping_add(1);
             if addr as u32 == b.main_addr {
                 let now = b.now;
                 b.main_at.push(now);
-            }
-            b.trace_i = b.trace_i.wrapping_add(1);
-            if b.now >= b.stop_at || addr == SENTINEL {
-                let _ = uc.emu_stop();
             }
         })
         .map_err(e)?;
@@ -233,7 +248,7 @@ impl Twin {
             let mut stop = t_end.min(b.next_event());
             if pending {
                 // masked or in the handler: look again soon
-                stop = stop.max(now + 1).min(now + 1000);
+                stop = stop.max(now + 1).min(now + 200);
             }
             b.stop_at = stop.max(now + 1);
             let pc = self.next_pc.take().unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0));
@@ -243,6 +258,11 @@ impl Twin {
             }
             let r = self.uc.emu_start(pc | 1, SENTINEL, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            if let Some(a) = self.board_mut().stopped_at.take() {
+                if u64::from(a) != pc && pc != SENTINEL {
+                    self.stats.stop_mismatch += 1;
+                }
+            }
             if let Err(err) = r {
                 return Err(self.fault(format!("CPU stopped: {err:?}")));
             }

@@ -52,8 +52,8 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         b.now as f64 / secs / 1e6
     );
     println!(
-        "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}",
-        b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched
+        "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}; stops deferred out of IT blocks {}; stop mismatches {}",
+        b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
     );
     Ok(())
 }
