@@ -7,6 +7,7 @@ pub mod elf;
 pub mod machine;
 pub mod pads;
 pub mod plant;
+pub mod pty;
 pub mod pwm;
 pub mod qtimer;
 

@@ -1,5 +1,7 @@
 //! `twin boot [ms]`: boot the image, print Serial1 output and figures.
 //! `twin home [ms]`: boot, send `<HOME>`, print joint angles and STEP counts.
+//! `twin live`: LPUART6 on a pseudo-terminal (its path is printed); runs
+//! until interrupted, as fast as it can (slower than real time).
 
 use std::time::Instant;
 
@@ -17,7 +19,7 @@ fn main() {
 
 fn run(cmd: &str, ms: u64) -> Result<(), String> {
     let elf = load_image()?;
-    let mut t = Twin::new(&elf, Plant::new(&kernel::config::PAROL6, [0.3, -0.2, 0.5, 1.0, -1.0, 2.0]))?;
+    let mut t = Twin::new(&elf, Plant::new(&kernel::config::PAROL6, twin::START_Q))?;
     if std::env::var_os("TWIN_FAULTS_INACTIVE").is_some() {
         t.board_mut().faults_forced_inactive = true;
     }
@@ -36,7 +38,8 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
                 println!("{l}");
             }
         }
-        other => return Err(format!("unknown command {other} (boot | home)")),
+        "live" => return live(t),
+        other => return Err(format!("unknown command {other} (boot | home | live)")),
     }
     let secs = wall.elapsed().as_secs_f64();
     let b = t.board();
@@ -56,4 +59,32 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
     );
     Ok(())
+}
+
+/// Serve LPUART6 on a pty: bytes written by a client go to the image's RX
+/// line, the image's TX bytes come back, paced by simulated time.
+fn live(mut t: Twin) -> Result<(), String> {
+    let pty = twin::pty::Pty::open()?;
+    println!("twin: Serial1 (LPUART6) on {}", pty.path);
+    let mut sent = 0usize;
+    let mut buf = [0u8; 256];
+    let wall = Instant::now();
+    loop {
+        let n = pty.read(&mut buf);
+        if n > 0 {
+            t.board_mut().serial_send(&buf[..n]);
+        }
+        let next = (t.now() / MS + 1) * MS;
+        t.run_until(next).map_err(|f| f.to_string())?;
+        let out: Vec<u8> = t.board().uart.tx_out[sent..].iter().map(|&(_, b)| b).collect();
+        sent += out.len();
+        pty.write(&out);
+        if t.now() % (1000 * MS) == 0 {
+            eprintln!(
+                "twin: {:.1} s simulated, {:.3} x real time",
+                t.now() as f64 / (1000 * MS) as f64,
+                t.now() as f64 / (1000 * MS) as f64 / wall.elapsed().as_secs_f64()
+            );
+        }
+    }
 }
