@@ -79,7 +79,7 @@ fn live(mut t: Twin) -> Result<(), String> {
         let out: Vec<u8> = t.board().uart.tx_out[sent..].iter().map(|&(_, b)| b).collect();
         sent += out.len();
         pty.write(&out);
-        if t.now() % (1000 * MS) == 0 {
+        if t.now().is_multiple_of(1000 * MS) {
             eprintln!(
                 "twin: {:.1} s simulated, {:.3} x real time",
                 t.now() as f64 / (1000 * MS) as f64,
