@@ -407,3 +407,80 @@ fn note_rise(log: &mut OutputLog, t: u64, record: bool) {
         log.rises.push(t);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: PadRoute = PadRoute { routed: [[true; 2]; 4] };
+
+    /// Submodule 0, output A: period `val1 + 1` counts, pulse `val3`.
+    fn start(p: &mut FlexPwm, val1: u16, val3: u16) {
+        p.write(0x0E, val1);
+        p.write(0x16, val3);
+        p.write(0x180, 1 << 8); // OUTEN PWMA_EN0
+        p.write(0x188, 1); // LDOK
+        p.write(0x188, 1 << 8); // RUN
+        p.settle_time(0);
+    }
+
+    #[test]
+    fn reset_state_faults_disable_outputs() {
+        let mut p = FlexPwm::new();
+        start(&mut p, 99, 10);
+        p.advance(400 * 10, &ALL); // ten periods of 100 counts x 4 cycles
+        assert_eq!(p.sm[0].log[0].pulses, 0, "FLVL = 0, inputs low: fault");
+        assert!(p.fault_disabled(0, 0));
+    }
+
+    #[test]
+    fn disarmed_faults_give_one_pulse_per_period() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000); // FLVL = 1: logic 1 is a fault
+        p.write(0x18E, 0x000F); // clear FFLAG
+        start(&mut p, 99, 10);
+        p.advance(400 * 10 - 1, &ALL);
+        assert_eq!(p.sm[0].log[0].pulses, 10);
+        // not routed to a pad: no pulse reaches the pin
+        let mut q = FlexPwm::new();
+        q.write(0x18C, 0xF000);
+        q.write(0x18E, 0x000F);
+        start(&mut q, 99, 10);
+        q.advance(4000, &PadRoute::default());
+        assert_eq!(q.sm[0].log[0].pulses, 0);
+    }
+
+    #[test]
+    fn buffered_writes_ignored_while_ldok_set_and_load_at_reload() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000);
+        p.write(0x18E, 0x000F);
+        start(&mut p, 99, 10);
+        p.write(0x0E, 199);
+        p.write(0x188, 1 | (1 << 8)); // LDOK (RUN kept) pending until the next reload
+        p.write(0x0E, 299); // ignored
+        assert_eq!(p.sm[0].dropped_writes, 1);
+        assert_eq!(p.sm[0].val[1], 99, "active value unchanged before the reload");
+        p.advance(400, &ALL); // end of the first period: reload
+        assert_eq!(p.sm[0].val[1], 199);
+        assert_eq!(p.mctrl & 1, 0, "LDOK cleared by the load");
+        // CLDOK clears a pending LDOK; the buffer is writable again
+        p.write(0x188, 1 | (1 << 8));
+        p.write(0x188, (1 << 4) | (1 << 8));
+        p.write(0x0E, 49);
+        assert_eq!(p.sm[0].b_val[1], 49);
+    }
+
+    #[test]
+    fn force_reinitialises_counter_without_loading() {
+        let mut p = FlexPwm::new();
+        start(&mut p, 999, 10);
+        p.advance(4 * 500, &ALL);
+        assert_eq!(p.sm[0].cnt, 500);
+        p.write(0x0E, 99);
+        p.write(0x188, 1 | (1 << 8));
+        p.write(0x04, 0x00C0); // FRCEN | FORCE, FORCE_SEL = 0
+        assert_eq!(p.sm[0].cnt, 0);
+        assert_eq!(p.sm[0].val[1], 999, "FORCE is not a reload");
+    }
+}
