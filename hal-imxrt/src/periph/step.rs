@@ -104,6 +104,14 @@ impl StepOutputs {
         // stop, masked
         ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !(bit << 8));
         self.mask(f, true);
+        // Fault inputs (issue 11 defect 1, shown by the twin): at reset
+        // FLVL = 0 makes a logic 0 a fault, the inputs come from XBARA1
+        // outputs whose reset selection is LOGIC_LOW, and SMDISMAP0 maps
+        // every fault to A and B, so every output would stay disabled.
+        // Make logic 1 the fault level (nothing routes one) and clear the
+        // latched flags (w1c), as imxrt-hal and the Teensy core do.
+        ral::write_reg!(ral::pwm, rb, FCTRL0, FLVL: 0xF);
+        ral::write_reg!(ral::pwm, rb, FSTS0, FFLAG: 0xF);
         // IPG clock, local reload, local software FORCE re-initialises counter,
         // independent A/B outputs.
         ral::write_reg!(

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Build the Serial1 release image the twin runs and copy it to
+# target/twin/parol6-serial1.elf (firmware/build.sh always writes
+# target/firmware/parol6.elf whatever the features, so the twin keeps its own
+# copy; a later USB build cannot replace it by accident).
+set -euo pipefail
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$ROOT"
+# build.sh exits non-zero when its panic-path or reproducibility checks fail;
+# the twin runs whatever image was built, so only a missing ELF is fatal.
+FEATURES=serial1 SKIP_REPRO=1 firmware/build.sh || echo "(firmware/build.sh reported a check failure; the image was still built)"
+mkdir -p target/twin
+ELF="${CARGO_TARGET_DIR:-$ROOT/target/fw-build}/thumbv7em-none-eabihf/release/parol6"
+[ -f "$ELF" ] || ELF="$ROOT/target/firmware/parol6.elf"
+cp "$ELF" target/twin/parol6-serial1.elf
+echo "twin image: target/twin/parol6-serial1.elf"

@@ -1,0 +1,42 @@
+//! Register-level twin of the PAROL6 Teensy 4.1 board (issue 11): the
+//! shipped release image executed by Unicorn with i.MXRT1062 peripheral
+//! models and a stepper plant. See `twin/README.md` for what is modelled.
+
+pub mod board;
+pub mod elf;
+pub mod machine;
+pub mod pads;
+pub mod plant;
+pub mod pty;
+pub mod pwm;
+pub mod qtimer;
+
+pub use board::{Board, CPU_HZ};
+pub use machine::{Fault, Twin};
+pub use plant::Plant;
+
+/// Cycles per millisecond.
+pub const MS: u64 = CPU_HZ / 1000;
+
+/// Path of the Serial1 image built by `twin/build-image.sh`, relative to the
+/// repository root.
+pub const IMAGE: &str = "target/twin/parol6-serial1.elf";
+
+/// Load the Serial1 image (env `TWIN_ELF` overrides the path).
+pub fn load_image() -> Result<Vec<u8>, String> {
+    let path = std::env::var("TWIN_ELF").unwrap_or_else(|_| {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        root.join(IMAGE).to_string_lossy().into_owned()
+    });
+    std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+}
+
+/// Joint angles the tests and the CLI start from (rad): inside every
+/// joint's limits, off every switch, each encoder at a distinct count.
+pub const START_Q: [f64; 6] = [0.3, -0.2, 0.5, 1.0, -1.0, 2.0];
+
+/// Load the Serial1 image into a fresh twin with the arm at [`START_Q`].
+pub fn boot_twin() -> Result<Twin, String> {
+    let elf = load_image()?;
+    Twin::new(&elf, Plant::new(&kernel::config::PAROL6, START_Q))
+}

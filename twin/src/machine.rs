@@ -1,0 +1,375 @@
+//! The CPU: Unicorn (Cortex-M7, Thumb, M-class) with the memory map of the
+//! Teensy 4.1, MMIO hooks into [`Board`], the Cortex-M core peripherals the
+//! image touches (SCB, NVIC, DWT), and exception entry/return done by the
+//! harness (Unicorn has no NVIC): the PIT handler is called as a function
+//! with a sentinel return address, the interrupted context saved and
+//! restored whole.
+
+use std::collections::HashMap;
+
+use unicorn_engine::{Arch, ArmCpuModel, Context, Mode, Prot, RegisterARM, Unicorn};
+
+use crate::board::{Board, Reset, IRQ_PIT};
+use crate::elf::Image;
+use crate::plant::Plant;
+
+const ITCM: u64 = 0x0000_0000;
+const DTCM: u64 = 0x2000_0000;
+const OCRAM: u64 = 0x2020_0000;
+const FLASH: u64 = 0x6000_0000;
+const PERIPH: u64 = 0x4000_0000;
+const FAST_GPIO: u64 = 0x4200_0000;
+const PPB: u64 = 0xE000_0000;
+/// Return address given to handlers; a `b .` lives there.
+const SENTINEL: u64 = 0x7000_0000;
+
+/// Why a run stopped with an error.
+#[derive(Debug)]
+pub struct Fault {
+    /// Message.
+    pub what: String,
+    /// PC.
+    pub pc: u32,
+    /// PC as a symbol.
+    pub at: String,
+}
+
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} at {:#010x} ({})", self.what, self.pc, self.at)
+    }
+}
+
+/// Counters of what the harness did.
+#[derive(Clone, Debug, Default)]
+pub struct Stats {
+    /// PIT handler invocations.
+    pub pit_calls: u64,
+    /// Time (cycles) of each PIT handler entry (bounded).
+    pub pit_entries: Vec<u64>,
+    /// Stops where the CPU did not halt at the block that requested the
+    /// stop (would mean a miscounted block; expected 0).
+    pub stop_mismatch: u64,
+    /// Chip resets by the watchdog.
+    pub watchdog_resets: u64,
+}
+
+/// The twin: CPU + board.
+pub struct Twin {
+    /// Unicorn with the board as its data.
+    pub uc: Unicorn<'static, Board>,
+    /// The image (symbols).
+    pub image: Image,
+    boot_sp: u32,
+    boot_pc: u32,
+    reset_ctx: Context,
+    in_handler: Option<Context>,
+    next_pc: Option<u64>,
+    /// Harness statistics.
+    pub stats: Stats,
+}
+
+fn count_thumb(code: &[u8]) -> u64 {
+    let mut i = 0;
+    let mut n = 0;
+    while i + 1 < code.len() {
+        let hw = u16::from_le_bytes([code[i], code[i + 1]]);
+        i += if hw >> 11 >= 0b11101 { 4 } else { 2 };
+        n += 1;
+    }
+    n.max(1)
+}
+
+impl Twin {
+    /// Load an ELF and set the chip to power-on.
+    pub fn new(elf: &[u8], plant: Plant) -> Result<Self, String> {
+        let image = Image::parse(elf)?;
+        let e = |x: unicorn_engine::uc_error| format!("unicorn: {x:?}");
+        let mut uc = Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, Board::new(plant)).map_err(e)?;
+        uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M7 as i32).map_err(e)?;
+        uc.mem_map(ITCM, 512 * 1024, Prot::ALL).map_err(e)?;
+        uc.mem_map(DTCM, 512 * 1024, Prot::ALL).map_err(e)?;
+        uc.mem_map(OCRAM, 1024 * 1024, Prot::ALL).map_err(e)?;
+        uc.mem_map(FLASH, 8 * 1024 * 1024, Prot::ALL).map_err(e)?;
+        uc.mem_map(FAST_GPIO, 0x1_0000, Prot::READ | Prot::WRITE).map_err(e)?;
+        uc.mem_map(SENTINEL, 0x1000, Prot::ALL).map_err(e)?;
+        uc.mem_write(SENTINEL, &[0xFE, 0xE7]).map_err(e)?; // b .
+        for s in &image.segments {
+            uc.mem_write(u64::from(s.paddr), &s.data).map_err(e)?;
+        }
+        uc.mmio_map(
+            PERIPH,
+            0x40_0000,
+            Some(|uc: &mut Unicorn<'_, Board>, off: u64, size: usize| {
+                u64::from(uc.get_data_mut().read(PERIPH as u32 + off as u32, size))
+            }),
+            Some(|uc: &mut Unicorn<'_, Board>, off: u64, size: usize, v: u64| {
+                uc.get_data_mut().write(PERIPH as u32 + off as u32, size, v as u32)
+            }),
+        )
+        .map_err(e)?;
+        uc.mmio_map(
+            PPB,
+            0x10_0000,
+            Some(|uc: &mut Unicorn<'_, Board>, off: u64, size: usize| {
+                u64::from(ppb_read(uc.get_data_mut(), PPB as u32 + off as u32, size))
+            }),
+            Some(|uc: &mut Unicorn<'_, Board>, off: u64, _size: usize, v: u64| {
+                ppb_write(uc.get_data_mut(), PPB as u32 + off as u32, v as u32)
+            }),
+        )
+        .map_err(e)?;
+        // time: one instruction = one cycle, counted per translated block
+        let mut cache: HashMap<u64, u64> = HashMap::new();
+        uc.add_block_hook(1, 0, move |uc: &mut Unicorn<'_, Board>, addr: u64, size: u32| {
+            let n = *cache.entry(addr).or_insert_with(|| {
+                let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
+                count_thumb(&code)
+            });
+            let b = uc.get_data_mut();
+            if b.now >= b.stop_at || addr == SENTINEL {
+                // Never stop inside an IT block: restarting writes the PC,
+                // which loses ITSTATE (the rest of the block would run
+                // unconditionally). Stop at the next block instead.
+                let xpsr = uc.reg_read(RegisterARM::XPSR).unwrap_or(0);
+                if xpsr & 0x0600_FC00 == 0 {
+                    // Unicorn stops before this block's body runs; it is
+                    // counted when it runs after the restart.
+                    let _ = uc.emu_stop();
+                    uc.get_data_mut().stopped_at = Some(addr as u32);
+                    return;
+                }
+                uc.get_data_mut().it_deferred += 1;
+            }
+            let b = uc.get_data_mut();
+            b.now += n;
+            b.trace[b.trace_i & 15] = addr as u32;
+            b.trace_i = b.trace_i.wrapping_add(1);
+            if addr as u32 == b.main_addr {
+                let now = b.now;
+                b.main_at.push(now);
+            }
+        })
+        .map_err(e)?;
+        uc.add_insn_invalid_hook(|uc: &mut Unicorn<'_, Board>| {
+            // YIELD, WFE, WFI, SEV are architectural hints; NOP is a valid
+            // implementation on a single core without low-power modes.
+            // Unicorn reports the PC after the hint inside an IT block and
+            // at the hint otherwise; patch it to NOP (so it is not trapped
+            // again) and continue after it.
+            let is_hint = |uc: &Unicorn<'_, Board>, a: u64| {
+                let mut hw = [0u8; 2];
+                uc.mem_read(a, &mut hw).is_ok() && matches!(u16::from_le_bytes(hw), 0xBF10 | 0xBF20 | 0xBF30 | 0xBF40)
+            };
+            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            let (at, resume) = if is_hint(uc, pc) {
+                (pc, Some(pc + 2))
+            } else if pc >= 2 && is_hint(uc, pc - 2) {
+                (pc - 2, None)
+            } else {
+                return false;
+            };
+            let _ = uc.mem_write(at, &[0x00, 0xBF]);
+            let _ = uc.ctl_remove_cache(at, at + 2);
+            if let Some(r) = resume {
+                let _ = uc.reg_write(RegisterARM::PC, r);
+            }
+            uc.get_data_mut().hints_patched += 1;
+            true
+        })
+        .map_err(e)?;
+        let ivt_entry = read_u32(&uc, 0x6000_1004)?;
+        let boot_sp = read_u32(&uc, u64::from(ivt_entry))?;
+        let boot_pc = read_u32(&uc, u64::from(ivt_entry) + 4)?;
+        let reset_ctx = uc.context_init().map_err(e)?;
+        if std::env::var_os("TWIN_DEBUG").is_some() {
+            eprintln!("IVT entry {ivt_entry:#x} sp {boot_sp:#x} pc {boot_pc:#x}");
+        }
+        let main_addr = image.symbols.get("main").copied().unwrap_or(u32::MAX);
+        uc.get_data_mut().main_addr = main_addr;
+        let mut t =
+            Twin { uc, image, boot_sp, boot_pc, reset_ctx, in_handler: None, next_pc: None, stats: Stats::default() };
+        t.cpu_reset()?;
+        Ok(t)
+    }
+
+    fn cpu_reset(&mut self) -> Result<(), String> {
+        let e = |x: unicorn_engine::uc_error| format!("unicorn: {x:?}");
+        self.uc.context_restore(&self.reset_ctx).map_err(e)?;
+        self.uc.reg_write(RegisterARM::SP, u64::from(self.boot_sp)).map_err(e)?;
+        self.next_pc = Some(u64::from(self.boot_pc & !1));
+        self.in_handler = None;
+        Ok(())
+    }
+
+    /// The board.
+    pub fn board(&self) -> &Board {
+        self.uc.get_data()
+    }
+    /// The board, mutable.
+    pub fn board_mut(&mut self) -> &mut Board {
+        self.uc.get_data_mut()
+    }
+    /// Simulated time in cycles.
+    pub fn now(&self) -> u64 {
+        self.board().now
+    }
+
+    fn fault(&self, what: String) -> Fault {
+        let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32;
+        let b = self.board();
+        let trail: Vec<String> =
+            (0..16).map(|k| b.trace[(b.trace_i + k) & 15]).map(|a| self.image.symbolize(a)).collect();
+        let what = format!("{what}; last blocks: {}", trail.join(" > "));
+        Fault { what, pc, at: self.image.symbolize(pc) }
+    }
+
+    /// Run until simulated time `t_end` (cycles).
+    pub fn run_until(&mut self, t_end: u64) -> Result<(), Fault> {
+        while self.now() < t_end {
+            if let Some(Reset::Watchdog) = self.board_mut().reset.take() {
+                self.stats.watchdog_resets += 1;
+                let b = self.board_mut();
+                b.reset_peripherals();
+                b.srsr = 1 << 7; // WDOG3_RST_B
+                self.cpu_reset().map_err(|w| self.fault(w))?;
+            }
+            let primask = self.uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1;
+            let pending = self.board_mut().pit_irq();
+            if self.in_handler.is_none() && pending && primask == 0 {
+                self.enter_pit()?;
+            }
+            let now = self.now();
+            let b = self.board_mut();
+            b.wdog_check();
+            if b.reset.is_some() {
+                continue;
+            }
+            let mut stop = t_end.min(b.next_event());
+            if pending {
+                // masked or in the handler: look again soon
+                stop = stop.max(now + 1).min(now + 200);
+            }
+            b.stop_at = stop.max(now + 1);
+            let pc = self.next_pc.take().unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0));
+            if std::env::var_os("TWIN_DEBUG").is_some() && now < 100_000 || std::env::var_os("TWIN_DEBUG_ALL").is_some()
+            {
+                eprintln!("start at {pc:#x} now {now} stop {}", self.board().stop_at);
+            }
+            let r = self.uc.emu_start(pc | 1, SENTINEL, 0, 0);
+            let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            if let Some(a) = self.board_mut().stopped_at.take() {
+                if u64::from(a) != pc && pc != SENTINEL {
+                    self.stats.stop_mismatch += 1;
+                }
+            }
+            if let Err(err) = r {
+                return Err(self.fault(format!("CPU stopped: {err:?}")));
+            }
+            if pc == SENTINEL {
+                let Some(ctx) = self.in_handler.take() else {
+                    return Err(self.fault("returned to the sentinel outside a handler".into()));
+                };
+                self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn enter_pit(&mut self) -> Result<(), Fault> {
+        let e = |x: unicorn_engine::uc_error| format!("{x:?}");
+        let vtor = self.board().vtor;
+        let handler = read_u32(&self.uc, u64::from(vtor) + 4 * (16 + u64::from(IRQ_PIT))).map_err(|w| self.fault(w))?;
+        let mut ctx = self.uc.context_alloc().map_err(|x| self.fault(e(x)))?;
+        self.uc.context_save(&mut ctx).map_err(|x| self.fault(e(x)))?;
+        let sp = self.uc.reg_read(RegisterARM::SP).unwrap_or(0);
+        // the hardware frame with lazily stacked FP context: 104 bytes, 8-aligned
+        let nsp = (sp - 104) & !7;
+        let ok =
+            self.uc.reg_write(RegisterARM::SP, nsp).is_ok() && self.uc.reg_write(RegisterARM::LR, SENTINEL | 1).is_ok();
+        self.next_pc = Some(u64::from(handler & !1));
+        if !ok {
+            return Err(self.fault("cannot enter the PIT handler".into()));
+        }
+        self.in_handler = Some(ctx);
+        self.stats.pit_calls += 1;
+        if self.stats.pit_entries.len() < 1_000_000 {
+            let now = self.now();
+            self.stats.pit_entries.push(now);
+        }
+        Ok(())
+    }
+
+    /// Address of a symbol.
+    pub fn symbol(&self, name: &str) -> Option<u32> {
+        self.image.symbols.get(name).copied()
+    }
+}
+
+fn read_u32(uc: &Unicorn<'_, Board>, a: u64) -> Result<u32, String> {
+    let mut b = [0u8; 4];
+    uc.mem_read(a, &mut b).map_err(|e| format!("read {a:#x}: {e:?}"))?;
+    Ok(u32::from_le_bytes(b))
+}
+
+fn cyccnt_enabled(b: &Board) -> bool {
+    b.demcr & (1 << 24) != 0 && b.dwt_ctrl & 1 != 0
+}
+
+fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
+    let v = match a & !3 {
+        0xE000_1000 => b.dwt_ctrl,
+        0xE000_1004 => {
+            if cyccnt_enabled(b) {
+                (b.now as u32).wrapping_add(b.cyccnt_off)
+            } else {
+                b.cyccnt_off
+            }
+        }
+        0xE000_ED00 => 0x411F_C271, // CPUID: Cortex-M7 r1p1
+        0xE000_ED08 => b.vtor,
+        0xE000_EDFC => b.demcr,
+        x @ 0xE000_E100..=0xE000_E11C => b.nvic_en[((x - 0xE000_E100) / 4) as usize],
+        x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize],
+        x => b.regs.get(&x).copied().unwrap_or(0),
+    };
+    let shift = (a & 3) * 8;
+    match size {
+        1 => (v >> shift) & 0xFF,
+        2 => (v >> shift) & 0xFFFF,
+        _ => v,
+    }
+}
+
+fn ppb_write(b: &mut Board, a: u32, v: u32) {
+    match a & !3 {
+        0xE000_1000 => {
+            // entering/leaving the enabled state keeps the count continuous
+            let before = ppb_read(b, 0xE000_1004, 4);
+            b.dwt_ctrl = (b.dwt_ctrl & 0xF000_0000) | (v & 0x0FFF_FFFF);
+            set_cyccnt(b, before);
+        }
+        0xE000_1004 => set_cyccnt(b, v),
+        0xE000_ED08 => b.vtor = v & !0x7F,
+        0xE000_EDFC => {
+            let before = ppb_read(b, 0xE000_1004, 4);
+            b.demcr = v;
+            set_cyccnt(b, before);
+        }
+        x @ 0xE000_E100..=0xE000_E11C => b.nvic_en[((x - 0xE000_E100) / 4) as usize] |= v,
+        x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize] &= !v,
+        x => {
+            b.regs.insert(x, v);
+        }
+    }
+    let next = b.next_event();
+    b.stop_at = b.stop_at.min(next.max(b.now + 1));
+}
+
+fn set_cyccnt(b: &mut Board, value: u32) {
+    if cyccnt_enabled(b) {
+        b.cyccnt_off = value.wrapping_sub(b.now as u32);
+    } else {
+        b.cyccnt_off = value;
+    }
+}

@@ -1,0 +1,90 @@
+//! `twin boot [ms]`: boot the image, print Serial1 output and figures.
+//! `twin home [ms]`: boot, send `<HOME>`, print joint angles and STEP counts.
+//! `twin live`: LPUART6 on a pseudo-terminal (its path is printed); runs
+//! until interrupted, as fast as it can (slower than real time).
+
+use std::time::Instant;
+
+use twin::{load_image, Plant, Twin, MS};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let cmd = args.get(1).map(String::as_str).unwrap_or("boot");
+    let ms: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200);
+    if let Err(e) = run(cmd, ms) {
+        eprintln!("twin: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cmd: &str, ms: u64) -> Result<(), String> {
+    let elf = load_image()?;
+    let mut t = Twin::new(&elf, Plant::new(&kernel::config::PAROL6, twin::START_Q))?;
+    if std::env::var_os("TWIN_FAULTS_INACTIVE").is_some() {
+        t.board_mut().faults_forced_inactive = true;
+    }
+    let wall = Instant::now();
+    match cmd {
+        "boot" => {
+            t.run_until(ms * MS).map_err(|f| f.to_string())?;
+        }
+        "home" => {
+            t.run_until(100 * MS).map_err(|f| f.to_string())?;
+            t.board_mut().serial_send(b"<HOME>\n");
+            t.run_until((100 + ms) * MS).map_err(|f| f.to_string())?;
+            println!("q = {:?}", t.board().plant.q());
+            println!("STEP pulses = {:?}", t.board().step_pulses());
+            for l in t.board().step_report() {
+                println!("{l}");
+            }
+        }
+        "live" => return live(t),
+        other => return Err(format!("unknown command {other} (boot | home | live)")),
+    }
+    let secs = wall.elapsed().as_secs_f64();
+    let b = t.board();
+    for line in b.serial_text().lines() {
+        println!("serial1> {line}");
+    }
+    println!(
+        "simulated {:.1} ms = {} instructions in {:.2} s wall ({:.4} x real time, {:.1} M instr/s)",
+        b.now as f64 / MS as f64,
+        b.now,
+        secs,
+        b.now as f64 / MS as f64 / 1000.0 / secs,
+        b.now as f64 / secs / 1e6
+    );
+    println!(
+        "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}; stops deferred out of IT blocks {}; stop mismatches {}",
+        b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
+    );
+    Ok(())
+}
+
+/// Serve LPUART6 on a pty: bytes written by a client go to the image's RX
+/// line, the image's TX bytes come back, paced by simulated time.
+fn live(mut t: Twin) -> Result<(), String> {
+    let pty = twin::pty::Pty::open()?;
+    println!("twin: Serial1 (LPUART6) on {}", pty.path);
+    let mut sent = 0usize;
+    let mut buf = [0u8; 256];
+    let wall = Instant::now();
+    loop {
+        let n = pty.read(&mut buf);
+        if n > 0 {
+            t.board_mut().serial_send(&buf[..n]);
+        }
+        let next = (t.now() / MS + 1) * MS;
+        t.run_until(next).map_err(|f| f.to_string())?;
+        let out: Vec<u8> = t.board().uart.tx_out[sent..].iter().map(|&(_, b)| b).collect();
+        sent += out.len();
+        pty.write(&out);
+        if t.now().is_multiple_of(1000 * MS) {
+            eprintln!(
+                "twin: {:.1} s simulated, {:.3} x real time",
+                t.now() as f64 / (1000 * MS) as f64,
+                t.now() as f64 / (1000 * MS) as f64 / wall.elapsed().as_secs_f64()
+            );
+        }
+    }
+}

@@ -1,0 +1,486 @@
+//! FlexPWM (PWM1..4) model: four submodules per module.
+//!
+//! Modelled (i.MXRT1060 RM, eFlexPWM chapter): 16-bit counter from `INIT`
+//! up to `VAL1` then reload, clocked by IPG (150 MHz = 4 CPU cycles) / 2^PRSC;
+//! output A high from the `VAL2` compare to the `VAL3` compare, B with
+//! `VAL4`/`VAL5` (edge-aligned, counter starting at `INIT`). Double
+//! buffering: `INIT`, `VALx` and `CTRL[PRSC]` are written to buffers; a write
+//! while the submodule's `LDOK` is set is **ignored**; buffers load at the
+//! next full-cycle reload (`CTRL[FULL]`) when `LDOK` is set, immediately if
+//! `LDMOD = 1`, and when `RUN` goes 0 -> 1 with `LDOK` set; `LDOK` then
+//! clears (`CLDOK` clears it by software). `CTRL2[FORCE]` with `FRCEN` and
+//! `FORCE_SEL = 0` re-initialises the counter to `INIT` (no buffer load).
+//! `MASK` (with `UPDATE_MASK`: immediately; otherwise at the next reload)
+//! forces an output to 0; `OUTEN` enables the pad driver.
+//!
+//! Fault protection with its **reset state**: four fault inputs per module
+//! come from XBARA1 outputs (reset selection `LOGIC_LOW`); `FCTRL0[FLVL]`
+//! = 0 (reset) means logic 0 is a fault; `SMDISMAP0` resets to `0xFFFF`
+//! (every fault disables A and B). A fault sets `FSTS0[FFLAG]` while its input
+//! is active (writing 1 clears it only if the input is inactive). Output
+//! disabled while any mapped fault flag is set or its input is active;
+//! re-enabled as soon as both are clear (the `FFULL`/`FHALF` recovery
+//! timing and `FSAFE`/`FAUTO` differences are not modelled).
+//!
+//! Not modelled: complementary mode, dead time, half-cycle reloads, `LDFQ`,
+//! fractional delay, input capture, DMA/interrupts, `DBGEN` (the core never
+//! halts in the twin), `SWCOUT`/`DTSRCSEL` other than 0, center-aligned
+//! waveforms with a signed `INIT`.
+
+/// One output's observed pulses.
+#[derive(Clone, Debug, Default)]
+pub struct OutputLog {
+    /// Rising edges that reached the pad (PWM function selected, output
+    /// enabled, not masked, not fault-disabled).
+    pub pulses: u64,
+    /// Time (cycles) of the last rising edge.
+    pub last_rise: Option<u64>,
+    /// Rising-edge times (kept if `record` is set; bounded).
+    pub rises: Vec<u64>,
+}
+
+/// A submodule.
+#[derive(Clone, Debug)]
+pub struct Submodule {
+    /// Active registers: INIT, VAL0..VAL5.
+    pub init: u16,
+    /// VAL0..VAL5.
+    pub val: [u16; 6],
+    /// Active prescaler (log2).
+    pub prsc: u16,
+    /// Buffered INIT.
+    pub b_init: u16,
+    /// Buffered VALx.
+    pub b_val: [u16; 6],
+    /// CTRL register as written (PRSC field = buffered value).
+    pub ctrl: u16,
+    /// CTRL2.
+    pub ctrl2: u16,
+    /// Other registers (OCTRL, TCTRL, DISMAP0/1, ...) by offset.
+    pub other: [u16; 0x30],
+    /// Counter value at `t_cnt`.
+    pub cnt: u16,
+    /// Time of `cnt` (cycles), always a counter-clock boundary when running.
+    pub t_cnt: u64,
+    /// Writes dropped because LDOK was set (diagnostic).
+    pub dropped_writes: u64,
+    /// Output logs A, B.
+    pub log: [OutputLog; 2],
+    /// The counter was (re)initialised to INIT at `t_cnt` and the compare
+    /// at INIT has not been evaluated yet.
+    pub at_start: bool,
+}
+
+impl Submodule {
+    fn new() -> Self {
+        let mut other = [0u16; 0x30];
+        other[0x2C / 2] = 0xFFFF; // DISMAP0 reset
+        other[0x2E / 2] = 0xFFFF; // DISMAP1 reset
+        Submodule {
+            init: 0,
+            val: [0; 6],
+            prsc: 0,
+            b_init: 0,
+            b_val: [0; 6],
+            ctrl: 0x0400,
+            ctrl2: 0,
+            other,
+            cnt: 0,
+            t_cnt: 0,
+            dropped_writes: 0,
+            log: [OutputLog::default(), OutputLog::default()],
+            at_start: false,
+        }
+    }
+    /// DISMAP0.
+    pub fn dismap0(&self) -> u16 {
+        self.other[0x2C / 2]
+    }
+    fn cycles_per_count(&self) -> u64 {
+        4u64 << self.prsc
+    }
+    fn load(&mut self) {
+        self.init = self.b_init;
+        self.val = self.b_val;
+        self.prsc = (self.ctrl >> 4) & 7;
+    }
+}
+
+/// Per-pad output routing, supplied by the board at advance time.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PadRoute {
+    /// The pad of output [A, B] of each submodule is muxed to this PWM.
+    pub routed: [[bool; 2]; 4],
+}
+
+/// One FlexPWM module.
+#[derive(Clone, Debug)]
+pub struct FlexPwm {
+    /// Submodules 0..3.
+    pub sm: [Submodule; 4],
+    /// OUTEN.
+    pub outen: u16,
+    /// MASK (active copy).
+    pub mask: u16,
+    /// MASK as written (buffered unless UPDATE_MASK).
+    pub mask_buf: u16,
+    /// MCTRL (LDOK bits 0..3, RUN bits 8..11, IPOL).
+    pub mctrl: u16,
+    /// FCTRL0.
+    pub fctrl: u16,
+    /// FSTS0: FFLAG (3:0) and FFULL (7:4) / FHALF (15:12) as written.
+    pub fsts: u16,
+    /// Other module registers.
+    pub other: [u16; 0x10],
+    /// Fault input levels (from XBARA1), set by the board.
+    pub fault_in: [bool; 4],
+    /// Keep the rising-edge times of each output (tests).
+    pub record: bool,
+}
+
+impl FlexPwm {
+    /// Reset state.
+    pub fn new() -> Self {
+        FlexPwm {
+            sm: [Submodule::new(), Submodule::new(), Submodule::new(), Submodule::new()],
+            outen: 0,
+            mask: 0,
+            mask_buf: 0,
+            mctrl: 0,
+            fctrl: 0,
+            fsts: 0,
+            other: [0; 0x10],
+            fault_in: [false; 4],
+            record: false,
+        }
+    }
+
+    fn running(&self, s: usize) -> bool {
+        self.mctrl & (1 << (8 + s)) != 0
+    }
+    fn ldok(&self, s: usize) -> bool {
+        self.mctrl & (1 << s) != 0
+    }
+
+    /// Fault input `i` active (its level equals FLVL).
+    fn fault_active(&self, i: usize) -> bool {
+        let flvl = self.fctrl & (1 << (12 + i)) != 0; // FCTRL0[FLVL] bits 15:12
+        self.fault_in[i] == flvl
+    }
+
+    /// Refresh fault flags from the input levels.
+    fn update_faults(&mut self) {
+        for i in 0..4 {
+            if self.fault_active(i) {
+                self.fsts |= 1 << i;
+            }
+        }
+    }
+
+    /// Output `b` (0 = A, 1 = B) of submodule `s` disabled by a fault.
+    pub fn fault_disabled(&self, s: usize, b: usize) -> bool {
+        let dis = self.sm[s].dismap0();
+        let bits = if b == 0 { dis & 0xF } else { (dis >> 4) & 0xF };
+        (0..4).any(|i| bits & (1 << i) != 0 && (self.fsts & (1 << i) != 0 || self.fault_active(i)))
+    }
+
+    fn output_live(&self, s: usize, b: usize, route: &PadRoute) -> bool {
+        let en_bit = if b == 0 { 8 + s } else { 4 + s };
+        self.outen & (1 << en_bit) != 0
+            && self.mask & (1 << en_bit) == 0
+            && !self.fault_disabled(s, b)
+            && route.routed[s][b]
+    }
+
+    /// Run every submodule up to time `t`, counting rising edges that reach
+    /// routed pads.
+    pub fn advance(&mut self, t: u64, route: &PadRoute) {
+        self.update_faults();
+        for s in 0..4 {
+            if !self.running(s) {
+                self.sm[s].t_cnt = t;
+                continue;
+            }
+            loop {
+                let live = [self.output_live(s, 0, route), self.output_live(s, 1, route)];
+                let record = self.record;
+                let ldok = self.ldok(s);
+                let sm = &mut self.sm[s];
+                if sm.at_start {
+                    if sm.t_cnt > t {
+                        break;
+                    }
+                    sm.at_start = false;
+                    for (b, &on) in live.iter().enumerate() {
+                        if on && sm.val[2 + 2 * b] == sm.cnt && sm.val[3 + 2 * b] > sm.cnt {
+                            note_rise(&mut sm.log[b], sm.t_cnt, record);
+                        }
+                    }
+                }
+                let cpc = sm.cycles_per_count();
+                let top = sm.val[1];
+                if top < sm.init {
+                    // degenerate: counter wraps at 0xFFFF; treat as stopped
+                    sm.t_cnt = t;
+                    break;
+                }
+                // compare edges within the current period that lie ahead
+                let elapsed = (t.saturating_sub(sm.t_cnt)) / cpc;
+                let to_end = u64::from(top.wrapping_sub(sm.cnt)) + 1; // counts until reload
+                if elapsed < to_end {
+                    // stays within the period: count edges strictly after cnt up to cnt+elapsed
+                    for (b, &on) in live.iter().enumerate() {
+                        let on_at = sm.val[2 + 2 * b];
+                        if on && on_at > sm.cnt && u64::from(on_at - sm.cnt) <= elapsed && sm.val[3 + 2 * b] > on_at {
+                            let tr = sm.t_cnt + u64::from(on_at - sm.cnt) * cpc;
+                            note_rise(&mut sm.log[b], tr, record);
+                        }
+                    }
+                    sm.cnt = sm.cnt.wrapping_add(elapsed as u16);
+                    sm.t_cnt += elapsed * cpc;
+                    break;
+                }
+                // finish the period: edges after cnt up to top
+                for (b, &on) in live.iter().enumerate() {
+                    let on_at = sm.val[2 + 2 * b];
+                    if on && on_at > sm.cnt && on_at <= top && sm.val[3 + 2 * b] > on_at {
+                        let tr = sm.t_cnt + u64::from(on_at - sm.cnt) * cpc;
+                        note_rise(&mut sm.log[b], tr, record);
+                    }
+                }
+                // reload at the period boundary
+                sm.t_cnt += to_end * cpc;
+                if ldok && sm.ctrl & 0x0400 != 0 {
+                    sm.load();
+                    self.mctrl &= !(1 << s);
+                }
+                self.mask = self.mask_buf;
+                let sm = &mut self.sm[s];
+                sm.cnt = sm.init;
+                sm.at_start = true;
+            }
+        }
+    }
+
+    /// A register read (offset within the module, 16-bit).
+    pub fn read(&self, off: u32) -> u16 {
+        if off < 0x180 {
+            let s = (off / 0x60) as usize;
+            let r = off % 0x60;
+            let sm = &self.sm[s];
+            return match r {
+                0x00 => sm.cnt,
+                0x02 => sm.b_init,
+                0x04 => sm.ctrl2 & !0x0040, // FORCE reads 0
+                0x06 => sm.ctrl & !0x0400 | (sm.ctrl & 0x0400),
+                0x0A | 0x0E | 0x12 | 0x16 | 0x1A | 0x1E => sm.b_val[((r - 0x0A) / 4) as usize],
+                _ => sm.other[(r / 2) as usize],
+            };
+        }
+        match off {
+            0x180 => self.outen,
+            0x182 => self.mask_buf & 0x0FFF,
+            0x188 => self.mctrl,
+            0x18C => self.fctrl,
+            0x18E => {
+                let pins: u16 = (0..4).map(|i| u16::from(self.fault_in[i]) << (8 + i)).sum();
+                // FFLAG 3:0, FFULL 7:4 (as written), FFPIN 11:8, FHALF 15:12
+                (self.fsts & 0x00FF) | pins | (self.fsts & 0xF000)
+            }
+            _ => self.other[((off - 0x180) / 2) as usize & 0xF],
+        }
+    }
+
+    /// A register write (16-bit).
+    pub fn write(&mut self, off: u32, v: u16) {
+        if off < 0x180 {
+            let s = (off / 0x60) as usize;
+            let r = off % 0x60;
+            let ldok = self.ldok(s);
+            let running = self.running(s);
+            let sm = &mut self.sm[s];
+            match r {
+                0x00 => sm.cnt = v,
+                0x02 => {
+                    if ldok {
+                        sm.dropped_writes += 1
+                    } else {
+                        sm.b_init = v
+                    }
+                }
+                0x04 => {
+                    sm.ctrl2 = v & !0x0040;
+                    // FORCE (bit 6), local (FORCE_SEL = 0), FRCEN (bit 7)
+                    if v & 0x0040 != 0 && v & 0x0038 == 0 && v & 0x0080 != 0 {
+                        sm.cnt = sm.init;
+                        sm.at_start = true;
+                    }
+                }
+                0x06 => {
+                    // PRSC (bits 6:4) is buffered
+                    if ldok && (v ^ sm.ctrl) & 0x0070 != 0 {
+                        sm.dropped_writes += 1;
+                        sm.ctrl = (v & !0x0070) | (sm.ctrl & 0x0070);
+                    } else {
+                        sm.ctrl = v;
+                    }
+                    // LDMOD (bit 2) with LDOK: immediate load
+                    if ldok && sm.ctrl & 0x0004 != 0 {
+                        sm.load();
+                        self.mctrl &= !(1 << s);
+                    }
+                }
+                0x0A | 0x0E | 0x12 | 0x16 | 0x1A | 0x1E => {
+                    if ldok {
+                        sm.dropped_writes += 1;
+                    } else {
+                        sm.b_val[((r - 0x0A) / 4) as usize] = v;
+                    }
+                }
+                _ => sm.other[(r / 2) as usize] = v,
+            }
+            let _ = running;
+            return;
+        }
+        match off {
+            0x180 => self.outen = v & 0x0FFF,
+            0x182 => {
+                self.mask_buf = v & 0x0FFF;
+                if v & 0xF000 != 0 {
+                    self.mask = self.mask_buf;
+                }
+            }
+            0x188 => {
+                let old = self.mctrl;
+                let cldok = (v >> 4) & 0xF;
+                let mut n = (v & 0xFF0F & !0x00F0) | (old & 0x000F);
+                n |= v & 0x000F; // LDOK: write 1 to set
+                n &= !cldok; // CLDOK clears
+                self.mctrl = n;
+                for s in 0..4 {
+                    let started = old & (1 << (8 + s)) == 0 && n & (1 << (8 + s)) != 0;
+                    let ldok = self.mctrl & (1 << s) != 0;
+                    if ldok && (started || (self.sm[s].ctrl & 0x0004 != 0)) {
+                        self.sm[s].load();
+                        self.mctrl &= !(1 << s);
+                    }
+                    if started {
+                        self.sm[s].at_start = true;
+                    }
+                }
+            }
+            0x18C => self.fctrl = v,
+            0x18E => {
+                // FFLAG: w1c, only if the input is inactive
+                for i in 0..4 {
+                    if v & (1 << i) != 0 && !self.fault_active(i) {
+                        self.fsts &= !(1 << i);
+                    }
+                }
+                self.fsts = (self.fsts & 0x000F) | (v & 0xF0F0);
+            }
+            _ => self.other[((off - 0x180) / 2) as usize & 0xF] = v,
+        }
+    }
+
+    /// Start time bookkeeping for submodules that just started (called by
+    /// the board after a write, with the current time).
+    pub fn settle_time(&mut self, t: u64) {
+        for s in 0..4 {
+            if !self.running(s) {
+                self.sm[s].t_cnt = t;
+            }
+        }
+    }
+}
+
+impl Default for FlexPwm {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn note_rise(log: &mut OutputLog, t: u64, record: bool) {
+    log.pulses += 1;
+    log.last_rise = Some(t);
+    if record && log.rises.len() < 1_000_000 {
+        log.rises.push(t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: PadRoute = PadRoute { routed: [[true; 2]; 4] };
+
+    /// Submodule 0, output A: period `val1 + 1` counts, pulse `val3`.
+    fn start(p: &mut FlexPwm, val1: u16, val3: u16) {
+        p.write(0x0E, val1);
+        p.write(0x16, val3);
+        p.write(0x180, 1 << 8); // OUTEN PWMA_EN0
+        p.write(0x188, 1); // LDOK
+        p.write(0x188, 1 << 8); // RUN
+        p.settle_time(0);
+    }
+
+    #[test]
+    fn reset_state_faults_disable_outputs() {
+        let mut p = FlexPwm::new();
+        start(&mut p, 99, 10);
+        p.advance(400 * 10, &ALL); // ten periods of 100 counts x 4 cycles
+        assert_eq!(p.sm[0].log[0].pulses, 0, "FLVL = 0, inputs low: fault");
+        assert!(p.fault_disabled(0, 0));
+    }
+
+    #[test]
+    fn disarmed_faults_give_one_pulse_per_period() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000); // FLVL = 1: logic 1 is a fault
+        p.write(0x18E, 0x000F); // clear FFLAG
+        start(&mut p, 99, 10);
+        p.advance(400 * 10 - 1, &ALL);
+        assert_eq!(p.sm[0].log[0].pulses, 10);
+        // not routed to a pad: no pulse reaches the pin
+        let mut q = FlexPwm::new();
+        q.write(0x18C, 0xF000);
+        q.write(0x18E, 0x000F);
+        start(&mut q, 99, 10);
+        q.advance(4000, &PadRoute::default());
+        assert_eq!(q.sm[0].log[0].pulses, 0);
+    }
+
+    #[test]
+    fn buffered_writes_ignored_while_ldok_set_and_load_at_reload() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000);
+        p.write(0x18E, 0x000F);
+        start(&mut p, 99, 10);
+        p.write(0x0E, 199);
+        p.write(0x188, 1 | (1 << 8)); // LDOK (RUN kept) pending until the next reload
+        p.write(0x0E, 299); // ignored
+        assert_eq!(p.sm[0].dropped_writes, 1);
+        assert_eq!(p.sm[0].val[1], 99, "active value unchanged before the reload");
+        p.advance(400, &ALL); // end of the first period: reload
+        assert_eq!(p.sm[0].val[1], 199);
+        assert_eq!(p.mctrl & 1, 0, "LDOK cleared by the load");
+        // CLDOK clears a pending LDOK; the buffer is writable again
+        p.write(0x188, 1 | (1 << 8));
+        p.write(0x188, (1 << 4) | (1 << 8));
+        p.write(0x0E, 49);
+        assert_eq!(p.sm[0].b_val[1], 49);
+    }
+
+    #[test]
+    fn force_reinitialises_counter_without_loading() {
+        let mut p = FlexPwm::new();
+        start(&mut p, 999, 10);
+        p.advance(4 * 500, &ALL);
+        assert_eq!(p.sm[0].cnt, 500);
+        p.write(0x0E, 99);
+        p.write(0x188, 1 | (1 << 8));
+        p.write(0x04, 0x00C0); // FRCEN | FORCE, FORCE_SEL = 0
+        assert_eq!(p.sm[0].cnt, 0);
+        assert_eq!(p.sm[0].val[1], 999, "FORCE is not a reload");
+    }
+}

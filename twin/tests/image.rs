@@ -1,0 +1,171 @@
+//! Tests of the shipped Serial1 image on the twin (evidence kind:
+//! **emulated**: the release image against peripheral models, not hardware).
+//! Build the image first: `twin/test.sh` does (or `twin/build-image.sh`).
+
+use twin::{boot_twin, Twin, MS};
+
+fn run(t: &mut Twin, until_ms: u64) {
+    if let Err(f) = t.run_until(until_ms * MS) {
+        panic!("image stopped: {f}");
+    }
+}
+
+fn lines(t: &Twin) -> Vec<String> {
+    t.board().serial_text().lines().map(str::to_owned).collect()
+}
+
+/// (a) The image reaches `main`, prints its banner and READY, then feedback
+/// lines, on Serial1 within 60 ms of power-on (30 ms of it is the encoder
+/// self-test).
+#[test]
+fn boots_and_prints_banner_on_serial1() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 60);
+    let b = t.board();
+    assert_eq!(b.main_at.len(), 1, "main entered once");
+    assert!(b.main_at[0] < 1_000_000, "main after {} instructions", b.main_at[0]);
+    let l = lines(&t);
+    assert!(l.first().is_some_and(|s| s.starts_with("BOOT PAROL6 fw=")), "{l:?}");
+    assert!(l.iter().any(|s| s == "READY"), "{l:?}");
+    assert!(l.iter().any(|s| s.starts_with("<ACK,")), "no feedback line: {l:?}");
+    // Serial1 pads: the pins are muxed to LPUART6 (ALT2)
+    assert_eq!(b.pin_function(1), "ALT2");
+    assert_eq!(b.pin_function(0), "ALT2");
+}
+
+/// The encoder waveforms reach the image: its feedback reports the plant's
+/// angles (motor angle modulo one turn, divided by the gear ratio).
+#[test]
+fn feedback_reports_encoder_angles() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 80);
+    let l = lines(&t);
+    let last = l.iter().rev().find(|s| s.starts_with("<ACK,")).expect("feedback").clone();
+    let f: Vec<f64> =
+        last.trim_matches(['<', '>']).split(',').skip(2).step_by(2).take(6).map(|x| x.parse().unwrap()).collect();
+    let cfg = &kernel::config::PAROL6;
+    for (i, (&got, &q)) in f.iter().zip(twin::START_Q.iter()).enumerate() {
+        let g = f64::from(cfg.joints[i].gear_ratio);
+        let want = (q * g).rem_euclid(std::f64::consts::TAU) / g;
+        assert!((got - want).abs() < 0.002, "J{}: reported {got}, plant {want} ({last})", i + 1);
+    }
+}
+
+/// (b) The PIT tick runs at 1 kHz of simulated time (handler entries
+/// 600 000 cycles apart on average; each within the harness's delivery
+/// latency of +-3 000 cycles: the interrupt is taken at a translated-block
+/// boundary, and polled every 200 cycles while PRIMASK masks it) and
+/// every tick refreshes the RTWDOG; no watchdog reset.
+#[test]
+fn pit_tick_is_1khz_and_feeds_the_watchdog() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 250);
+    let e = &t.stats.pit_entries;
+    assert!(e.len() >= 200, "{} ticks", e.len());
+    for w in e.windows(2) {
+        let d = w[1] - w[0];
+        assert!((597_000..=603_000).contains(&d), "tick interval {d} cycles");
+    }
+    let mean = (e[e.len() - 1] - e[0]) as f64 / (e.len() - 1) as f64;
+    assert!((mean - 600_000.0).abs() < 20.0, "mean tick interval {mean} cycles");
+    let first = e[0];
+    let expected = (t.now() - first) / 600_000 + 1;
+    assert!((e.len() as u64).abs_diff(expected) <= 1, "{} ticks, expected {expected}", e.len());
+    let b = t.board();
+    assert!(b.wdog.refreshes >= e.len() as u64, "{} refreshes for {} ticks", b.wdog.refreshes, e.len());
+    assert_eq!(t.stats.watchdog_resets, 0);
+    assert_eq!(b.srsr & (1 << 7), 0);
+    // the harness's time accounting: every stop landed where requested
+    assert_eq!(t.stats.stop_mismatch, 0);
+}
+
+/// (b') A stalled tick (the PIT interrupt disabled behind the image's back)
+/// lets the RTWDOG expire: the chip resets within ~20 ms, the image boots
+/// again (a second `main`, a second banner).
+#[test]
+fn stalled_tick_resets_through_the_watchdog() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 60);
+    t.board_mut().nvic_en = [0; 8]; // the tick never runs again
+    let stalled_at = t.now();
+    run(&mut t, 150);
+    assert_eq!(t.stats.watchdog_resets, 1);
+    let b = t.board();
+    assert_eq!(b.main_at.len(), 2);
+    let reset_after_ms = (b.main_at[1] - stalled_at) as f64 / MS as f64;
+    assert!(reset_after_ms < 25.0, "reset {reset_after_ms} ms after the stall");
+    let l = lines(&t);
+    let banners = l.iter().filter(|s| s.starts_with("BOOT PAROL6")).count();
+    assert_eq!(banners, 2, "{l:?}");
+    // the second boot reports the watchdog reset (SelfTest 0x81 = 129)
+    assert!(l.iter().any(|s| s == "FAULT HARDWARE SELF_TEST code=129"), "{l:?}");
+}
+
+/// Pulses on each STEP pin within `ms` after sending `<HOME>`.
+fn home_pulses(t: &mut Twin, ms: u64) -> [u64; 6] {
+    run(t, 60);
+    t.board_mut().serial_send(b"<HOME>\n");
+    run(t, 60 + ms);
+    t.board().step_pulses()
+}
+
+/// (c) Issue 11 defect 1: homing starts with J6 (step rate ~10 k steps/s),
+/// so within 200 ms its STEP pin must have produced pulses. With the
+/// FlexPWM fault inputs left in their reset state (XBAR LOGIC_LOW, FLVL =
+/// 0 -> fault; DISMAP0 = 0xFFFF) the outputs stay disabled and no pulse
+/// reaches the pin: this failed on the image before the fix in
+/// `hal-imxrt/src/periph/step.rs` (0 pulses on every pin).
+#[test]
+fn defect1_home_produces_step_pulses() {
+    let mut t = boot_twin().unwrap();
+    let p = home_pulses(&mut t, 200);
+    assert!(lines(&t).iter().any(|s| s.starts_with("HOMING_STARTED")), "{:?}", lines(&t));
+    let report = t.board().step_report().join("\n");
+    assert!(p[5] > 1000, "J6 STEP pulses {p:?}\n{report}");
+}
+
+/// Control for the test above (not hardware): the same run with the fault
+/// inputs forced inactive produces the pulses, so the test fails only
+/// because of the fault state.
+#[test]
+fn defect1_control_faults_forced_inactive() {
+    let mut t = boot_twin().unwrap();
+    t.board_mut().faults_forced_inactive = true;
+    let p = home_pulses(&mut t, 200);
+    assert!(p[5] > 1000, "J6 STEP pulses {p:?}");
+    assert_eq!(&p[..5], &[0; 5], "only J6 homes first");
+}
+
+/// (d) `<HOME>` over the modelled UART moves J6 toward its switch (positive
+/// direction) and nothing else; the DIR line is high for J6.
+#[test]
+fn home_moves_j6_first() {
+    let mut t = boot_twin().unwrap();
+    let q0 = t.board().plant.q();
+    home_pulses(&mut t, 300);
+    let q = t.board().plant.q();
+    assert!(q[5] - q0[5] > 0.3, "J6 moved {} rad", q[5] - q0[5]);
+    for i in 0..5 {
+        assert_eq!(q[i], q0[i], "J{} moved", i + 1);
+    }
+    assert!(t.board().dir_level(5));
+}
+
+/// Issue 11 defect 2: the HAL writes `PRSC`/`VAL1`/`VAL3` and sets `LDOK`
+/// every tick without waiting for (or clearing) a pending `LDOK`; buffered
+/// registers ignore writes while `LDOK` is set, so below ~1 000 steps/s
+/// (a period longer than a tick) most timing updates are lost. Homing J6
+/// from 0.1 rad before its switch runs it slowly; the twin counts the
+/// ignored writes (14 by 100 ms after `<HOME>`, ~150 per 100 ms after).
+#[test]
+#[ignore = "defect 2: fails until the HAL stops writing buffered FlexPWM registers while LDOK is pending"]
+fn defect2_no_timing_write_dropped_while_ldok_pending() {
+    let mut q = twin::START_Q;
+    q[5] = 6.2;
+    let elf = twin::load_image().unwrap();
+    let mut t = Twin::new(&elf, twin::Plant::new(&kernel::config::PAROL6, q)).unwrap();
+    let p = home_pulses(&mut t, 300);
+    assert!(p[5] > 0, "J6 did not step: {p:?}");
+    let dropped: u64 = t.board().pwm.iter().flat_map(|m| m.sm.iter()).map(|s| s.dropped_writes).sum();
+    assert_eq!(dropped, 0, "timing writes ignored while LDOK was set\n{}", t.board().step_report().join("\n"));
+}
