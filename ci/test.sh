@@ -52,6 +52,9 @@ firmware/build.sh
 step "Cortex-M7 emulation (QEMU mps2-an500): host vs target traces bit for bit"
 EMU_TARGET_DIR="$ROOT/target/emu" emu/test.sh
 
+step "register-level twin (Unicorn): the Serial1 release image on i.MXRT1062 peripheral models"
+twin/test.sh
+
 if [ "${QUICK:-0}" != "1" ]; then
     step "exhaustive sweeps (every I8F24 / f32 bit pattern of the per-axis functions)"
     cargo run -p exhaustive --release --locked --bin exhaustive
