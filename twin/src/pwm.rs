@@ -471,6 +471,36 @@ mod tests {
         assert_eq!(p.sm[0].b_val[1], 49);
     }
 
+    /// `MCTRL[CLDOK]`: writing 1 clears that submodule's `LDOK` only (other
+    /// submodules' `LDOK` kept), reads 0; writing 0 to `LDOK` has no effect;
+    /// after the clear the buffers take writes and nothing loads at the
+    /// reload until `LDOK` is set again.
+    #[test]
+    fn cldok_clears_pending_ldok() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000);
+        p.write(0x18E, 0x000F);
+        start(&mut p, 99, 10);
+        p.write(0x0E, 199);
+        p.write(0x188, 0b0011 | (1 << 8)); // LDOK for submodules 0 and 1
+        assert_eq!(p.mctrl & 0xF, 0b0011);
+        p.write(0x188, 1 << 8); // LDOK written 0: no effect
+        assert_eq!(p.mctrl & 0xF, 0b0011);
+        p.write(0x188, (1 << 4) | (1 << 8)); // CLDOK submodule 0
+        assert_eq!(p.mctrl & 0xF, 0b0010, "only submodule 0's LDOK cleared");
+        assert_eq!(p.read(0x188) & 0x00F0, 0, "CLDOK reads 0");
+        assert_eq!(p.mctrl & (1 << 8), 1 << 8, "RUN kept");
+        p.write(0x0E, 149); // accepted now
+        assert_eq!(p.sm[0].dropped_writes, 0);
+        assert_eq!(p.sm[0].b_val[1], 149);
+        p.advance(400, &ALL); // reload with LDOK clear: no load
+        assert_eq!(p.sm[0].val[1], 99);
+        p.write(0x188, 1 | (1 << 8));
+        p.advance(400 + 600, &ALL); // next reload loads the newest value
+        assert_eq!(p.sm[0].val[1], 149);
+        assert_eq!(p.mctrl & 1, 0);
+    }
+
     #[test]
     fn force_reinitialises_counter_without_loading() {
         let mut p = FlexPwm::new();

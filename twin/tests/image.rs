@@ -14,6 +14,12 @@ fn lines(t: &Twin) -> Vec<String> {
     t.board().serial_text().lines().map(str::to_owned).collect()
 }
 
+/// A driver-dialect feedback line `<ACK,seq,p1,v1,...,p6,v6,H<d>>` (the
+/// configurator line starts with a space, ` <ACK,...`, and is not one).
+fn is_driver_feedback(s: &str) -> bool {
+    s.starts_with("<ACK,") && s.ends_with('>') && s.contains(",H")
+}
+
 /// (a) The image reaches `main`, prints its banner and READY, then feedback
 /// lines, on Serial1 within 60 ms of power-on (30 ms of it is the encoder
 /// self-test).
@@ -27,7 +33,7 @@ fn boots_and_prints_banner_on_serial1() {
     let l = lines(&t);
     assert!(l.first().is_some_and(|s| s.starts_with("BOOT PAROL6 fw=")), "{l:?}");
     assert!(l.iter().any(|s| s == "READY"), "{l:?}");
-    assert!(l.iter().any(|s| s.starts_with("<ACK,")), "no feedback line: {l:?}");
+    assert!(l.iter().any(|s| is_driver_feedback(s)), "no feedback line: {l:?}");
     // Serial1 pads: the pins are muxed to LPUART6 (ALT2)
     assert_eq!(b.pin_function(1), "ALT2");
     assert_eq!(b.pin_function(0), "ALT2");
@@ -40,7 +46,7 @@ fn feedback_reports_encoder_angles() {
     let mut t = boot_twin().unwrap();
     run(&mut t, 80);
     let l = lines(&t);
-    let last = l.iter().rev().find(|s| s.starts_with("<ACK,")).expect("feedback").clone();
+    let last = l.iter().rev().find(|s| is_driver_feedback(s)).expect("feedback").clone();
     let f: Vec<f64> =
         last.trim_matches(['<', '>']).split(',').skip(2).step_by(2).take(6).map(|x| x.parse().unwrap()).collect();
     let cfg = &kernel::config::PAROL6;
@@ -151,14 +157,14 @@ fn home_moves_j6_first() {
     assert!(t.board().dir_level(5));
 }
 
-/// Issue 11 defect 2: the HAL writes `PRSC`/`VAL1`/`VAL3` and sets `LDOK`
+/// Issue 11 defect 2: the HAL wrote `PRSC`/`VAL1`/`VAL3` and set `LDOK`
 /// every tick without waiting for (or clearing) a pending `LDOK`; buffered
 /// registers ignore writes while `LDOK` is set, so below ~1 000 steps/s
-/// (a period longer than a tick) most timing updates are lost. Homing J6
-/// from 0.1 rad before its switch runs it slowly; the twin counts the
-/// ignored writes (14 by 100 ms after `<HOME>`, ~150 per 100 ms after).
+/// (a period longer than a tick) most timing updates were lost (before the
+/// fix the twin counted 14 ignored writes by 100 ms after `<HOME>`, ~150 per
+/// 100 ms after, homing J6 from 0.1 rad before its switch). The HAL now
+/// clears a pending load with `CLDOK` before every buffered write.
 #[test]
-#[ignore = "defect 2: fails until the HAL stops writing buffered FlexPWM registers while LDOK is pending"]
 fn defect2_no_timing_write_dropped_while_ldok_pending() {
     let mut q = twin::START_Q;
     q[5] = 6.2;

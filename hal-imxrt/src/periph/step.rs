@@ -5,13 +5,16 @@
 //! `VAL1 = period - 1` (full-cycle reload), output high at `VAL2/VAL4 = 0`,
 //! low at `VAL3/VAL5 = pulse`. Changes follow [`plan_update`]:
 //!
-//! * `Retime`: write `PRSC`/`VAL1`/`VAL3|5`, set `LDOK`: the new values load
-//!   at the next period boundary, so pulses are never truncated.
+//! * `Retime`: `CLDOK` (cancel a load still pending from an earlier update:
+//!   while `LDOK` is set the hardware ignores writes to the buffered
+//!   registers), write `PRSC`/`VAL1`/`VAL3|5`, set `LDOK`: the new values
+//!   load at the next period boundary, so pulses are never truncated, and
+//!   the newest timing replaces one not yet loaded.
 //! * `Halt`: set the output's `MASK` bit with `UPDATE_MASK` (immediate; output
 //!   forced low).
 //! * `Restart`: mask, write DIR (if changed), busy-wait the DIR settle time
-//!   (one wait per call, shared by all axes), stop the counter, write the
-//!   timing, `LDOK`, software `FORCE` (with `FRCEN`) to re-initialise the
+//!   (one wait per call, shared by all axes), stop the counter, `CLDOK`,
+//!   write the timing, `LDOK`, software `FORCE` (with `FRCEN`) to re-initialise the
 //!   counter to `INIT`, unmask, run. The first rising edge is at the counter
 //!   restart, after the settle time.
 //!
@@ -20,6 +23,14 @@
 //! (reference manual wording, not verified on silicon), and the DIR-to-STEP
 //! delay. Worst case ISR cost of a reversal: 900 cycles (1.5 us) once per
 //! call plus register writes.
+//!
+//! Buffered registers (`CTRL[PRSC]`, `INIT`, `VAL0..VAL5`) ignore writes
+//! while the submodule's `LDOK` is set (issue 11 defect 2, shown by the
+//! twin), so every write of them is preceded by `CLDOK` for that submodule
+//! and followed by `LDOK`. `MCTRL` read-modify-writes write the `LDOK` field
+//! as 0 (writing 0 has no effect; writing back a 1 read a moment earlier
+//! would re-arm another submodule's load that its reload has just cleared)
+//! and set only the `CLDOK`/`LDOK` bits they mean.
 
 use super::cycles::CycleCounter;
 use super::gpio::Gpios;
@@ -30,6 +41,21 @@ use imxrt_ral as ral;
 use ral::pwm;
 
 const SETTLE_CYCLES: u32 = dir_settle_cycles(DIR_SETTLE_NS, CPU_HZ);
+
+/// `MCTRL[LDOK]` (write 1 to set, 0 no effect).
+const MCTRL_LDOK: u16 = pwm::MCTRL::LDOK::mask;
+
+/// Clear the pending load of the submodules in `bits` (`MCTRL[CLDOK]`,
+/// write 1 to clear `LDOK`; reads 0). `LDOK` is written as 0.
+fn clear_ldok(rb: &pwm::RegisterBlock, bits: u16) {
+    ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | ((bits & 0xF) << 4));
+}
+
+/// Set `LDOK` for the submodules in `bits` only (the others' `LDOK` written
+/// as 0, `CLDOK` reads 0 so is written as 0).
+fn set_ldok(rb: &pwm::RegisterBlock, bits: u16) {
+    ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | (bits & 0xF));
+}
 
 #[derive(Clone, Copy, Debug)]
 struct Axis {
@@ -102,7 +128,7 @@ impl StepOutputs {
         let bit = 1u16 << (f.submodule & 3);
         let sm = &rb.SM[(f.submodule & 3) as usize];
         // stop, masked
-        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !(bit << 8));
+        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !MCTRL_LDOK & !(bit << 8));
         self.mask(f, true);
         // Fault inputs (issue 11 defect 1, shown by the twin): at reset
         // FLVL = 0 makes a logic 0 a fault, the inputs come from XBARA1
@@ -126,6 +152,9 @@ impl StepOutputs {
             INDEP: 1,
             DBGEN: 1
         );
+        // A load left pending (by a warm reset that kept the peripheral's
+        // state) would make the buffered writes below be ignored.
+        clear_ldok(rb, bit);
         ral::write_reg!(ral::pwm::sm, sm, SMCTRL, FULL: 1, PRSC: 0, LDMOD: 0);
         ral::write_reg!(ral::pwm::sm, sm, SMINIT, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL0, 0);
@@ -134,6 +163,7 @@ impl StepOutputs {
         ral::write_reg!(ral::pwm::sm, sm, SMVAL3, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL4, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL5, 0);
+        set_ldok(rb, bit); // loads when the counter first runs
         // output enable for our output only
         match f.output {
             PwmOutput::A => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 8)),
@@ -157,28 +187,34 @@ impl StepOutputs {
         }
     }
 
+    /// `CLDOK`, the buffered timing registers, `LDOK`.
     fn write_timing(&self, f: FlexPwmFn, t: StepTiming) {
         let rb = self.block(f.module);
+        let bit = 1u16 << (f.submodule & 3);
         let sm = &rb.SM[(f.submodule & 3) as usize];
+        // A load still pending (period longer than the update interval)
+        // is replaced by this one: the buffers are writable only once its
+        // LDOK is cleared. Between the CLDOK and the LDOK a period
+        // boundary loads nothing, so PRSC/VAL1/VAL3|5 load together.
+        clear_ldok(rb, bit);
         ral::modify_reg!(ral::pwm::sm, sm, SMCTRL, PRSC: t.prescaler_log2 as u16 & 7);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL1, t.period.saturating_sub(1));
         match f.output {
             PwmOutput::A => ral::write_reg!(ral::pwm::sm, sm, SMVAL3, t.pulse),
             PwmOutput::B => ral::write_reg!(ral::pwm::sm, sm, SMVAL5, t.pulse),
         }
-        let bit = 1u16 << (f.submodule & 3);
-        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v | bit); // LDOK
+        set_ldok(rb, bit);
     }
 
     fn restart(&self, f: FlexPwmFn, t: StepTiming) {
         let rb = self.block(f.module);
         let bit = 1u16 << (f.submodule & 3);
         let sm = &rb.SM[(f.submodule & 3) as usize];
-        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !(bit << 8)); // RUN = 0
-        self.write_timing(f, t); // values + LDOK
+        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !MCTRL_LDOK & !(bit << 8)); // RUN = 0
+        self.write_timing(f, t); // CLDOK, values, LDOK
         ral::modify_reg!(ral::pwm::sm, sm, SMCTRL2, FORCE: 1); // counter := INIT
         self.mask(f, false);
-        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v | (bit << 8)); // RUN = 1
+        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | (bit << 8)); // RUN = 1: loads
     }
 
     /// Apply one tick's commands (J1..J6). All DIR writes happen first, then
