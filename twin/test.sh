@@ -8,5 +8,5 @@ twin/setup.sh
 twin/build-image.sh
 cd twin
 cargo fmt --check
-cargo clippy --release --all-targets -- -D warnings
-cargo test --release
+cargo clippy --release --all-targets --locked -- -D warnings
+cargo test --release --locked

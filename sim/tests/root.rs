@@ -24,7 +24,7 @@ fn firmware_and_simulator_share_the_root() {
     let c: &Controller<'static> = root.controller();
     assert_eq!(c.kernel().state(), kernel::State::Boot);
     let target = include_str!("../../firmware/src/target/mod.rs");
-    assert!(target.contains("root::new(&PAROL6, link, HOST)"), "the image builds firmware::root");
+    assert!(target.contains("root::new(&PAROL6, link, HOST_CFG)"), "the image builds firmware::root");
     assert!(target.contains("ctx.controller.tick(&mut ctx.board)"), "the PIT handler runs Controller::tick");
     assert!(target.contains("host.poll(&mut proto, now_ms)"), "the main loop runs Host::poll");
     for logic in ["Receiver", "KernelF32", "FeedbackDivider", "driver_line", "Telemetry", "Debounce", "FrameDecoder"] {

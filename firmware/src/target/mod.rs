@@ -41,7 +41,7 @@ use hal_imxrt::pure::step::StepCommand;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
 use firmware::board::TickBoard;
-use firmware::root::{self, Controller, HostConfig, RootLink};
+use firmware::root::{self, BootReport, Controller, Host, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6};
 use protocol::report::config_fingerprint;
 
@@ -68,9 +68,9 @@ const BAUD: BaudDivisor = match lpuart_divisor(OSC_HZ, 115_200) {
 /// The main loop's settings: both clients on USB, the Serial1 budget on
 /// Serial1 (see `HostConfig::SERIAL1`).
 #[cfg(not(feature = "serial1"))]
-const HOST: HostConfig = HostConfig::USB;
+const HOST_CFG: HostConfig = HostConfig::USB;
 #[cfg(feature = "serial1")]
-const HOST: HostConfig = HostConfig::SERIAL1;
+const HOST_CFG: HostConfig = HostConfig::SERIAL1;
 /// Teensy LED: pin 13 = GPIO_B0_03 = GPIO2 bit 3.
 const LED_BIT: u32 = 1 << 3;
 
@@ -128,7 +128,9 @@ struct TickCtx {
 /// Initialised by `main` before the PIT interrupt is unmasked; afterwards
 /// used only by the PIT handler.
 static mut TICK_CTX: MaybeUninit<TickCtx> = MaybeUninit::uninit();
-/// The command/telemetry link; split once in `main`.
+/// The main loop's half of the root; written once by `init_root`.
+static mut HOST: MaybeUninit<Host<'static>> = MaybeUninit::uninit();
+/// The command/telemetry link; split once in `init_root`.
 static mut LINK: RootLink = RootLink::new();
 /// Survives a reset (imxrt-rt `.uninit`, not zeroed at start-up): set by the
 /// panic handler, read and cleared at boot.
@@ -197,24 +199,14 @@ fn main() -> ! {
         led_on(&inst.IOMUXC, &unsafe_gpio2());
     }
 
-    // --- the root: both halves on the one link.
-    // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
-    // two ends go to the tick (controller) and the main loop (host).
-    let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
-    let (mut controller, mut host) = root::new(&PAROL6, link, HOST);
-
-    // --- boot self-test: the encoders and limit inputs are sampled for
-    // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
-    // readings initialise the observers at the real angles (nothing moves).
+    // --- the root, built in its statics by a separate function so that its
+    // temporaries leave the stack before the main loop runs (built inline,
+    // `main`'s frame reserved 15-16 KiB of the 16 KiB stack and the first
+    // event line overflowed it: found by the register-level twin).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
-    let mut board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog };
-    let boot = controller.boot(&mut board, marker, watchdog_reset);
+    let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog };
+    let (host, boot) = init_root(board, marker, watchdog_reset);
 
-    // --- the tick context, then unmask.
-    let ctx = TickCtx { controller, board };
-    // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
-    // can observe `TICK_CTX` while it is written.
-    unsafe { (*addr_of_mut!(TICK_CTX)).write(ctx) };
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
     // which is initialised above. Highest priority (0), the only interrupt.
     unsafe {
@@ -273,6 +265,30 @@ impl MsClock {
         self.last = now;
         (self.cycles / 600_000) as u32
     }
+}
+
+/// Builds both halves of the root in their statics (`TICK_CTX` for the
+/// tick, `HOST` for the main loop), runs the boot self-test, and returns the
+/// main loop's half. Not inlined: its temporaries (the root is a few KiB)
+/// are released before the main loop starts. Called once, before the PIT
+/// interrupt is unmasked.
+#[inline(never)]
+fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static mut Host<'static>, BootReport) {
+    // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
+    // two ends go to the tick (controller) and the main loop (host).
+    let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
+    let (mut controller, host) = root::new(&PAROL6, link, HOST_CFG);
+    // Boot self-test: the encoders and limit inputs are sampled for
+    // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
+    // readings initialise the observers at the real angles (nothing moves).
+    let boot = controller.boot(&mut board, marker, watchdog_reset);
+    // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
+    // can observe `TICK_CTX` while it is written.
+    unsafe { (*addr_of_mut!(TICK_CTX)).write(TickCtx { controller, board }) };
+    // SAFETY: called once from `main`; `HOST` is written here and then used
+    // only through the returned reference, by the main loop alone.
+    let host = unsafe { (*addr_of_mut!(HOST)).write(host) };
+    (host, boot)
 }
 
 /// GPIO2 for the LED at boot (before `Gpios` owns the ports, or after: the

@@ -164,7 +164,7 @@ impl StepOutputs {
         ral::write_reg!(ral::pwm::sm, sm, SMVAL4, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL5, 0);
         set_ldok(rb, bit); // loads when the counter first runs
-        // output enable for our output only
+                           // output enable for our output only
         match f.output {
             PwmOutput::A => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 8)),
             PwmOutput::B => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 4)),
@@ -214,7 +214,8 @@ impl StepOutputs {
         self.write_timing(f, t); // CLDOK, values, LDOK
         ral::modify_reg!(ral::pwm::sm, sm, SMCTRL2, FORCE: 1); // counter := INIT
         self.mask(f, false);
-        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | (bit << 8)); // RUN = 1: loads
+        ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | (bit << 8));
+        // RUN = 1: loads
     }
 
     /// Apply one tick's commands (J1..J6). All DIR writes happen first, then
