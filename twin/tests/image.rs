@@ -175,3 +175,35 @@ fn defect2_no_timing_write_dropped_while_ldok_pending() {
     let dropped: u64 = t.board().pwm.iter().flat_map(|m| m.sm.iter()).map(|s| s.dropped_writes).sum();
     assert_eq!(dropped, 0, "timing writes ignored while LDOK was set\n{}", t.board().step_report().join("\n"));
 }
+
+/// Both clients on the Serial1 image's one stream (docs/PROTOCOL.md 4.1):
+/// every line that starts with `<` is the ROS 2 driver's (15 tokens, `H<d>`
+/// last), every configurator line is indented by one space and matches the
+/// configurator's regex after stripping, and the Serial1 budget holds (the
+/// driver's line every 20 ms, the configurator's every 100 ms).
+#[test]
+fn both_clients_rule_on_the_serial1_image() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 560);
+    let l = lines(&t);
+    let (mut driver, mut config) = (0, 0);
+    for s in &l {
+        if s.starts_with('<') {
+            let body = s.trim_start_matches('<').split('>').next().unwrap();
+            let tok: Vec<&str> = body.split(',').collect();
+            assert_eq!(tok.len(), 15, "a `<` line the driver would reject: {s}");
+            assert!(tok[14].starts_with('H'), "{s}");
+            driver += 1;
+        } else if let Some(c) = s.strip_prefix(' ') {
+            // ^<ACK,(\d+),([\d\.,\-]+)> with 15 numbers after SEQ.
+            let body = c.strip_prefix("<ACK,").and_then(|r| r.strip_suffix('>')).expect(s);
+            assert!(body.bytes().all(|b| b.is_ascii_digit() || b"-.,".contains(&b)), "{s}");
+            assert_eq!(body.split(',').count(), 16, "{s}");
+            config += 1;
+        }
+    }
+    // About 530 ms of feedback after the 30 ms self-test: 27 driver lines
+    // (50 Hz), 6 configurator lines (10 Hz).
+    assert!((25..=28).contains(&driver), "{driver} driver lines");
+    assert!((5..=7).contains(&config), "{config} configurator lines");
+}
