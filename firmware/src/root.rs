@@ -283,21 +283,6 @@ impl Controller<'_> {
     pub fn homing_phases(&self) -> [Phase; AXES] {
         self.kernel.homing_phases()
     }
-
-    /// SEQ the next feedback line acknowledges.
-    pub fn ack(&self) -> u32 {
-        self.ack
-    }
-
-    /// The encoder channels (diagnostics).
-    pub fn channels(&self) -> &[EncoderChannel; AXES] {
-        &self.channels
-    }
-
-    /// Telemetry elements the tick dropped and has not yet reported.
-    pub fn telemetry_unreported(&self) -> u32 {
-        self.link.lost()
-    }
 }
 
 /// The main loop's half: receiver, command queue, telemetry to lines,
@@ -427,10 +412,5 @@ impl Host<'_> {
     /// Commands refused by the full command queue.
     pub fn queue_refused(&self) -> u32 {
         self.link.refused()
-    }
-
-    /// The settings.
-    pub fn config(&self) -> HostConfig {
-        self.cfg
     }
 }

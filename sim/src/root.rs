@@ -178,19 +178,9 @@ impl Root {
         &self.controller
     }
 
-    /// The firmware's main-loop half.
-    pub fn host(&self) -> &Host<'static> {
-        &self.host
-    }
-
     /// The simulated arm.
     pub fn plant(&mut self) -> &mut Plant {
         &mut self.board.plant
-    }
-
-    /// The banner the firmware sends when a host opens the port.
-    pub fn banner(&mut self) -> String {
-        self.host.banner().to_string()
     }
 
     /// Receiver counters.
