@@ -31,6 +31,11 @@ use kernel::{EncoderSample, HardwareFault, Sense};
 /// Firmware version string for the banner.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
+// The kernel's time constants come from its configuration's tick rate; the
+// HAL's PIT runs at its own constant. They must be the same rate (C++
+// defect 11: a 500 Hz loop with dt hard-coded to 1 ms).
+static_assertions::const_assert_eq!(hal_imxrt::pure::clock::TICK_HZ, kernel::config::PAROL6.tick_hz);
+
 /// Command queue slots (as the simulator's root).
 pub const CMD_SLOTS: usize = 8;
 /// Telemetry queue slots.
@@ -43,6 +48,7 @@ pub fn sense(
     encoders: &[EncoderReading; AXES],
     limits: &[LimitState; AXES],
     hardware_fault: Option<HardwareFault>,
+    link_lost: bool,
 ) -> Sense {
     let mut e = [EncoderSample::Lost; AXES];
     for (o, r) in e.iter_mut().zip(encoders.iter()) {
@@ -57,7 +63,7 @@ pub fn sense(
             bits |= 1u8 << (i & 7);
         }
     }
-    Sense { encoders: e, limits: bits, hardware_fault }
+    Sense { encoders: e, limits: bits, hardware_fault, link_lost }
 }
 
 /// Kernel step rates (steps/s, signed) -> step generator commands, all six
@@ -148,7 +154,7 @@ mod tests {
             LimitState::Released,
             LimitState::Pressed,
         ];
-        let s = sense(&enc, &lim, Some(HardwareFault::TickOverrun));
+        let s = sense(&enc, &lim, Some(HardwareFault::TickOverrun), false);
         assert_eq!(
             s.encoders,
             [

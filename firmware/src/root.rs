@@ -29,7 +29,7 @@ use hal_imxrt::pure::channel::EncoderChannel;
 use hal_imxrt::pure::debounce::{Debounce, LimitState};
 use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
 use hal_imxrt::pure::step::{StepCommand, StepConfig};
-use kernel::config::{ArmConfig, AXES};
+use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
 use kernel::{Authority, Event, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State, TickOutput};
 use protocol::feedback::{FeedbackDivider, FeedbackMode};
@@ -96,7 +96,7 @@ impl HostConfig {
 /// Builds both halves of the root on `link`: the tick's [`Controller`]
 /// (with the kernel and its only [`Authority`]) and the main loop's
 /// [`Host`].
-pub fn new<'a>(cfg: &ArmConfig, link: &'a mut RootLink, host: HostConfig) -> (Controller<'a>, Host<'a>) {
+pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Controller<'a>, Host<'a>) {
     let (host_end, tick_end) = link.split();
     let (kernel, authority) = KernelF32::new(cfg);
     let controller = Controller {
@@ -105,7 +105,7 @@ pub fn new<'a>(cfg: &ArmConfig, link: &'a mut RootLink, host: HostConfig) -> (Co
         channels: [EncoderChannel::new(); AXES],
         debounce: [Debounce::new(); AXES],
         link: tick_end,
-        divider: FeedbackDivider::default_for(cfg.tick_hz),
+        divider: FeedbackDivider::default_for(cfg.config().tick_hz),
         step_cfg: StepConfig::DEFAULT,
         pending_fault: None,
         last_us: 0,
@@ -117,7 +117,7 @@ pub fn new<'a>(cfg: &ArmConfig, link: &'a mut RootLink, host: HostConfig) -> (Co
         line: Line::new(),
         tx: Tx::new(),
         cfg: host,
-        fingerprint: config_fingerprint(cfg),
+        fingerprint: config_fingerprint(cfg.config()),
         periods: 0,
         was_open: false,
     };
@@ -225,7 +225,7 @@ impl Controller<'_> {
             *r = ch.update(s);
         }
         let limits = self.sample_limits(board);
-        let sense = crate::sense(&readings, &limits, self.pending_fault.take());
+        let sense = crate::sense(&readings, &limits, self.pending_fault.take(), self.link.link_lost());
         // 2. one request; ENABLE becomes a capability only here
         let cmd = self.link.recv();
         let (target, seq) = match &cmd {
@@ -327,6 +327,8 @@ impl Host<'_> {
     pub fn receive<P: Port + ?Sized>(&mut self, port: &mut P, now_ms: u32) {
         port.poll();
         let open = port.is_open();
+        // A closed port is a lost link: the kernel stops a moving arm.
+        self.link.set_link_lost(!open);
         if open != self.was_open {
             if open {
                 let _ = self.banner();

@@ -39,10 +39,11 @@ pub const AXES: usize = 6;
 pub const COUNTS_PER_REV: i32 = 4096;
 /// Unwrapped joint angles beyond this magnitude (rad) are absurd: a fault.
 pub const POSITION_ABS_MAX: f32 = 32.0;
-/// Encoder plausibility: a reading may move at most this many times the
-/// per-tick motion at the runaway velocity (a tick can see 0 or 2 PWM frames
-/// of 1.03 ms), plus [`JUMP_SLACK_COUNTS`] of noise.
-pub const JUMP_FACTOR: f64 = 3.0;
+/// Period of one MT6816 PWM frame (s): 4119 clocks of 250 ns. A reading is
+/// the angle of the last complete frame, so it can lag the shaft by up to
+/// two frames; the plausibility window covers one tick plus two frames of
+/// motion at the runaway velocity, whatever the tick rate (C++ defect 11).
+pub const ENCODER_FRAME_S: f64 = 4119.0 * 250e-9;
 /// Noise allowance of the encoder plausibility check, in counts.
 pub const JUMP_SLACK_COUNTS: i32 = 8;
 
@@ -87,6 +88,11 @@ pub struct HomingConfig {
     pub switch_position: f32,
     /// Time allowed for this joint's whole homing sequence (ms).
     pub timeout_ms: u32,
+    /// Largest travel of the fast seek (rad): a dead switch or a reversed
+    /// motor faults after this distance, before the hard stop. At least the
+    /// joint range plus the switch's distance beyond the limit, at most
+    /// 0.25 rad more (checked).
+    pub max_travel: f32,
 }
 
 /// One joint's mechanics, limits and gains.
@@ -129,8 +135,8 @@ impl JointConfig {
     }
     /// Largest plausible change of the encoder reading in one tick (counts).
     pub const fn max_jump_counts(&self, tick_hz: u32) -> i32 {
-        let per_tick = self.runaway_velocity as f64 / self.rad_per_count() / tick_hz as f64;
-        let c = per_tick * JUMP_FACTOR;
+        let window_s = 1.0 / tick_hz as f64 + 2.0 * ENCODER_FRAME_S;
+        let c = self.runaway_velocity as f64 / self.rad_per_count() * window_s;
         // ceil for a positive value
         let t = c as i32;
         let t = if (t as f64) < c { t + 1 } else { t };
@@ -141,9 +147,21 @@ impl JointConfig {
         let h = &self.homing;
         let range = self.limit_max - self.limit_min;
         // fast seek over the whole range, back-off and release at fast speed,
-        // slow seek over twice the back-off (switch hysteresis allowance).
-        let s = range / h.fast_speed + 4.0 * h.backoff / h.fast_speed + 2.0 * h.backoff / h.slow_speed;
-        s * 1000.0
+        // slow seek over twice the back-off (switch hysteresis allowance),
+        // four accelerations to or from the fast speed, and the settle time.
+        let ramps = 4.0 * h.fast_speed / self.max_acceleration;
+        let s = range / h.fast_speed + 4.0 * h.backoff / h.fast_speed + 2.0 * h.backoff / h.slow_speed + ramps;
+        s * 1000.0 + HOMING_SETTLE_MS as f32
+    }
+    /// Distance (rad) to stop from `v` (rad/s) at this joint's acceleration.
+    pub const fn braking_distance(&self, v: f32) -> f32 {
+        v * v / (2.0 * self.max_acceleration)
+    }
+    /// Largest travel of a homing phase other than the fast seek (rad):
+    /// back-off or release (switch travel, the back-off and the braking
+    /// distance), or the slow seek back over them.
+    pub const fn homing_phase_travel(&self) -> f32 {
+        4.0 * self.homing.backoff + 2.0 * self.braking_distance(self.homing.fast_speed)
     }
 }
 
@@ -154,10 +172,10 @@ pub struct ArmConfig {
     pub tick_hz: u32,
     /// Joints J1..J6.
     pub joints: [JointConfig; AXES],
-    /// Alpha-beta observer position gain (per tick).
-    pub alpha: f32,
-    /// Alpha-beta observer velocity gain (per tick).
-    pub beta: f32,
+    /// Alpha-beta observer position gain (1/s): alpha = gain / tick_hz.
+    pub observer_position_gain: f32,
+    /// Alpha-beta observer velocity gain (1/s^2): beta = gain / tick_hz^2.
+    pub observer_velocity_gain: f32,
     /// Control output deadband (rad/s); 0 disables it.
     pub deadband: f32,
     /// Command timeout after which the soft E-stop starts (ms).
@@ -181,10 +199,82 @@ pub struct ArmConfig {
     /// Consecutive invalid or implausible encoder samples tolerated (the
     /// observer coasts on its prediction meanwhile); one more is a fault.
     pub encoder_invalid_limit: u32,
+    /// Following error (rad): a joint whose estimate is farther than this
+    /// from its commanded path (or, while more than half of it behind,
+    /// moves against the command) for longer than
+    /// [`ArmConfig::following_error_ms`] faults.
+    pub following_error: f32,
+    /// Time the following error may persist (ms).
+    pub following_error_ms: u32,
+    /// Tolerance (rad) added to the distance a stream segment can travel at
+    /// the joint's speed limit before a driver-dialect target is refused as
+    /// a jump.
+    pub target_jump_tolerance: f32,
 }
 
-/// Upper bound of segment lengths, in ticks (the size of the reciprocal table).
-pub const MAX_SEGMENT_TICKS: u32 = 64;
+impl ArmConfig {
+    /// The observer's alpha (per tick).
+    pub const fn alpha(&self) -> f32 {
+        self.observer_position_gain / self.tick_hz as f32
+    }
+    /// The observer's beta (per tick).
+    pub const fn beta(&self) -> f32 {
+        self.observer_velocity_gain / (self.tick_hz as f32 * self.tick_hz as f32)
+    }
+    /// How far past its last validated target a joint can travel: a soft
+    /// stop's ramp (linear over `soft_stop_ms`) started at speed `v` goes
+    /// `v T / 2`, the set-point's own braking `v^2 / 2a`; the difference is
+    /// largest at `v = a T / 2`: `a T^2 / 8` (rad), plus the following error
+    /// (beyond which the joint faults).
+    pub const fn overrun_bound(&self, j: &JointConfig) -> f32 {
+        let t = self.soft_stop_ms as f32 / 1000.0;
+        j.max_acceleration * t * t / 8.0 + self.following_error
+    }
+}
+
+/// A configuration that passed [`check`]: the only kind a kernel accepts.
+///
+/// ```compile_fail
+/// // A kernel cannot be built from an unchecked configuration.
+/// let _ = kernel::KernelF32::new(&kernel::config::PAROL6);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Validated(ArmConfig);
+
+impl Validated {
+    /// `c` if it passes [`check`], else the first inconsistency.
+    pub const fn new(c: ArmConfig) -> Result<Self, &'static str> {
+        match check(&c) {
+            Ok(()) => Ok(Validated(c)),
+            Err(e) => Err(e),
+        }
+    }
+    /// `c` if valid; fails the build when evaluated in a constant otherwise.
+    pub const fn assert(c: ArmConfig) -> Self {
+        match check(&c) {
+            Ok(()) => Validated(c),
+            Err(e) => panic!("{}", e),
+        }
+    }
+    /// The configuration.
+    pub const fn config(&self) -> &ArmConfig {
+        &self.0
+    }
+    /// A configuration that skips [`check`], for analyses that shrink the
+    /// robot to make a state space tractable (the model check, the proofs).
+    /// Only with the `relaxed-config` feature, which the firmware and the
+    /// simulator never enable; each user states what it relaxes and why.
+    #[cfg(feature = "relaxed-config")]
+    pub const fn relaxed(c: ArmConfig) -> Self {
+        Validated(c)
+    }
+}
+
+/// Upper bound of segment lengths, in ticks.
+pub const MAX_SEGMENT_TICKS: u32 = 256;
+/// Time each joint rests at the end of its homing before it counts as done,
+/// so the set-point taken from the estimate is where the joint is (ms).
+pub const HOMING_SETTLE_MS: u32 = 50;
 
 const fn joint(
     gear_ratio: f32,
@@ -211,8 +301,18 @@ const fn joint(
     }
 }
 
-const fn homing(direction: Direction, fast_speed: f32, switch_position: f32, timeout_ms: u32) -> HomingConfig {
-    HomingConfig { direction, fast_speed, slow_speed: 0.05, backoff: 0.05, switch_position, timeout_ms }
+const fn homing(
+    direction: Direction,
+    fast_speed: f32,
+    switch_position: f32,
+    timeout_ms: u32,
+    limits: (f32, f32),
+) -> HomingConfig {
+    // The fast seek may cross the whole range, reach the switch beyond the
+    // limit, and brake: 0.1 rad more than that.
+    let beyond = if switch_position > limits.1 { switch_position - limits.1 } else { limits.0 - switch_position };
+    let max_travel = limits.1 - limits.0 + beyond + 0.1;
+    HomingConfig { direction, fast_speed, slow_speed: 0.05, backoff: 0.05, switch_position, timeout_ms, max_travel }
 }
 
 /// The PAROL6 as in `ROBOT.md` section 1. Homing directions, switch angles
@@ -223,15 +323,16 @@ const fn homing(direction: Direction, fast_speed: f32, switch_position: f32, tim
 pub const PAROL6: ArmConfig = ArmConfig {
     tick_hz: 1000,
     joints: [
-        joint(6.4, 32, 3.0, 5.0, (-1.7, 1.7), homing(Direction::Negative, 0.5, -1.72, 12_000)),
-        joint(20.0, 32, 3.0, 5.0, (-0.802, 1.0), homing(Direction::Negative, 0.3, -0.822, 12_000)),
-        joint(18.0952, 32, 6.0, 2.0, (-2.0, 1.29), homing(Direction::Positive, 0.5, 1.31, 12_000)),
-        joint(4.0, 32, 6.0, 2.0, (-2.529, 1.849), homing(Direction::Negative, 1.0, -2.549, 10_000)),
-        joint(4.0, 32, 6.0, 2.0, (-2.1, 2.1), homing(Direction::Negative, 1.0, -2.12, 10_000)),
-        joint(10.0, 16, 6.0, 2.0, (-6.283, 6.283), homing(Direction::Positive, 2.0, 6.303, 12_000)),
+        joint(6.4, 32, 3.0, 5.0, (-1.7, 1.7), homing(Direction::Negative, 0.5, -1.72, 12_000, (-1.7, 1.7))),
+        joint(20.0, 32, 3.0, 5.0, (-0.802, 1.0), homing(Direction::Negative, 0.3, -0.822, 12_000, (-0.802, 1.0))),
+        joint(18.0952, 32, 6.0, 2.0, (-2.0, 1.29), homing(Direction::Positive, 0.5, 1.31, 12_000, (-2.0, 1.29))),
+        joint(4.0, 32, 6.0, 2.0, (-2.529, 1.849), homing(Direction::Negative, 1.0, -2.549, 10_000, (-2.529, 1.849))),
+        joint(4.0, 32, 6.0, 2.0, (-2.1, 2.1), homing(Direction::Negative, 1.0, -2.12, 10_000, (-2.1, 2.1))),
+        joint(10.0, 16, 6.0, 2.0, (-6.283, 6.283), homing(Direction::Positive, 2.0, 6.303, 12_000, (-6.283, 6.283))),
     ],
-    alpha: 0.1,
-    beta: 0.005,
+    // alpha 0.1 and beta 0.005 at 1 kHz (ROBOT.md), per second.
+    observer_position_gain: 100.0,
+    observer_velocity_gain: 5000.0,
     deadband: 0.0,
     command_timeout_ms: 100,
     soft_stop_ms: 100,
@@ -241,11 +342,19 @@ pub const PAROL6: ArmConfig = ArmConfig {
     segment_max_ms: 40,
     boot_timeout_ms: 50,
     homing_budget_ms: 85_000,
-    position_margin: 0.1,
+    // A soft stop mid-motion can carry a joint up to a T^2/8 = 75 mrad
+    // (J3..J6) past its last target, plus the following error (50 mrad):
+    // `check` requires the margin to cover both.
+    position_margin: 0.15,
     encoder_invalid_limit: 2,
+    following_error: 0.05,
+    following_error_ms: 20,
+    target_jump_tolerance: 0.02,
 };
 
 const _: () = assert_valid(&PAROL6);
+/// [`PAROL6`], checked: what the firmware and the simulator run.
+pub const PAROL6_VALIDATED: Validated = Validated::assert(PAROL6);
 static_assertions::const_assert!(HOMING_GROUPS[0] & HOMING_GROUPS[1] == 0);
 static_assertions::const_assert!(HOMING_GROUPS[1] & HOMING_GROUPS[2] == 0);
 static_assertions::const_assert!(HOMING_GROUPS[0] & HOMING_GROUPS[2] == 0);
@@ -273,13 +382,14 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
         return Err("tick_hz must be within 100..=10000");
     }
     let dt = 1.0 / c.tick_hz as f32;
-    if !(finite(c.alpha) && c.alpha > 0.0 && c.alpha < 1.0) {
-        return Err("observer alpha must be in (0, 1)");
+    let (alpha, beta) = (c.alpha(), c.beta());
+    if !(finite(alpha) && alpha > 0.0 && alpha < 1.0) {
+        return Err("observer alpha (position gain / tick_hz) must be in (0, 1)");
     }
     // Jury stability of the alpha-beta filter is 0 < beta < 4 - 2 alpha; we
     // also require no oscillatory response: beta <= alpha^2 / (2 - alpha)
     // (critically damped or slower), which alpha 0.1 / beta 0.005 meet.
-    if !(finite(c.beta) && c.beta > 0.0 && c.beta <= c.alpha * c.alpha / (2.0 - c.alpha) * 1.001) {
+    if !(finite(beta) && beta > 0.0 && beta <= alpha * alpha / (2.0 - alpha) * 1.001) {
         return Err("observer beta must be in (0, alpha^2/(2-alpha)] (stable, not oscillatory)");
     }
     if !(finite(c.deadband) && c.deadband >= 0.0) {
@@ -299,6 +409,9 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
     if smin < 1 || smin > smax || smax > MAX_SEGMENT_TICKS {
         return Err("segment lengths must satisfy 1 <= min <= max <= MAX_SEGMENT_TICKS ticks");
     }
+    if c.segment_max_ms >= c.command_timeout_ms {
+        return Err("the longest segment must be shorter than the command timeout");
+    }
     if ms_to_ticks(c.boot_timeout_ms, c.tick_hz) < 2 {
         return Err("boot timeout must allow at least two ticks");
     }
@@ -307,6 +420,16 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
     }
     if !(finite(c.position_margin) && c.position_margin >= 0.0 && c.position_margin < 1.0) {
         return Err("position margin must be in [0, 1) rad");
+    }
+    if !(finite(c.following_error) && c.following_error > 0.0 && c.following_error < c.position_margin) {
+        return Err("following error must be in (0, position_margin)");
+    }
+    let fe_ticks = ms_to_ticks(c.following_error_ms, c.tick_hz);
+    if fe_ticks < 2 || c.following_error_ms > 200 {
+        return Err("following error time must be at least two ticks and at most 200 ms");
+    }
+    if !(finite(c.target_jump_tolerance) && c.target_jump_tolerance >= 0.0 && c.target_jump_tolerance <= 0.1) {
+        return Err("target jump tolerance must be in [0, 0.1] rad");
     }
     let mut i = 0;
     while i < AXES {
@@ -368,8 +491,19 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     if jump * (c.encoder_invalid_limit as i32 + 1) >= COUNTS_PER_REV / 4 {
         return Err("encoder plausibility window too wide to unwrap unambiguously");
     }
-    if !(finite(j.max_acceleration) && j.max_acceleration > 0.0 && j.max_acceleration <= 1000.0) {
-        return Err("max acceleration must be in (0, 1000] rad/s^2");
+    if !(finite(j.max_acceleration) && j.max_acceleration > 0.0 && j.max_acceleration <= 200.0) {
+        return Err("max acceleration must be in (0, 200] rad/s^2");
+    }
+    // The soft stop's linear ramp must decelerate no faster than the joint
+    // may: from the clamp to zero within the ramp at most `max_acceleration`.
+    if j.max_velocity * 1000.0 > j.max_acceleration * c.soft_stop_ms as f32 * 1.0001 {
+        return Err("soft-stop ramp decelerates faster than max_acceleration");
+    }
+    // How far a joint can go past its last validated target (a soft stop
+    // from the worst speed, plus the following error) must fit inside the
+    // position margin, so a position fault means something is wrong.
+    if c.overrun_bound(j) >= c.position_margin {
+        return Err("stopping overrun (a T^2 / 8 + following error) exceeds position_margin");
     }
     if !(finite(j.kp) && j.kp > 0.0 && j.kp * dt <= 0.5) {
         return Err("Kp must be > 0 and Kp * dt <= 0.5 (discrete loop stable, not oscillatory)");
@@ -390,6 +524,19 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     if h.fast_speed > j.max_velocity {
         return Err("homing fast speed above the joint's max velocity");
     }
+    // The fast seek may cross the whole range and reach the switch; it must
+    // not be allowed much farther (the hard stop is near).
+    let beyond = if h.switch_position > j.limit_max {
+        h.switch_position - j.limit_max
+    } else if h.switch_position < j.limit_min {
+        j.limit_min - h.switch_position
+    } else {
+        0.0
+    };
+    let need = j.limit_max - j.limit_min + beyond;
+    if !(finite(h.max_travel) && h.max_travel >= need && h.max_travel <= need + 0.25) {
+        return Err("homing max_travel must be within [range + switch distance, + 0.25 rad]");
+    }
     if !(finite(h.backoff) && h.backoff > 0.0 && h.backoff < 0.5) {
         return Err("homing back-off must be in (0, 0.5) rad");
     }
@@ -399,7 +546,7 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     {
         return Err("homing switch position outside limits + margin");
     }
-    let landing = h.switch_position - h.direction.sign() * h.backoff;
+    let landing = h.switch_position - h.direction.sign() * (h.backoff + j.braking_distance(h.fast_speed));
     if landing < j.limit_min || landing > j.limit_max {
         return Err("homing release does not end inside the joint limits");
     }
@@ -428,6 +575,9 @@ mod tests {
             assert!((j.steps_per_rad() - want).abs() < 0.01, "{} vs {want}", j.steps_per_rad());
         }
         assert!(PAROL6.joints.iter().all(|j| j.max_jump_counts(1000) < 400));
+        for j in PAROL6.joints {
+            assert!(PAROL6.overrun_bound(&j) < PAROL6.position_margin);
+        }
     }
 
     fn with(f: impl Fn(&mut ArmConfig)) -> Result<(), &'static str> {
@@ -447,14 +597,19 @@ mod tests {
         assert!(with(|c| c.joints[1].microsteps = 64).is_err());
         assert!(with(|c| c.joints[0].homing.timeout_ms = 1_000).is_err());
         assert!(with(|c| c.joints[0].kp = 1000.0).is_err());
-        assert!(with(|c| c.beta = 0.5).is_err());
-        assert!(with(|c| c.alpha = f32::NAN).is_err());
+        assert!(with(|c| c.observer_velocity_gain = 500_000.0).is_err());
+        assert!(with(|c| c.observer_position_gain = f32::NAN).is_err());
+        assert!(with(|c| c.following_error = 0.2).is_err());
+        assert!(with(|c| c.joints[2].homing.max_travel = 10.0).is_err());
+        assert!(with(|c| c.joints[2].homing.max_travel = 1.0).is_err());
+        assert!(with(|c| c.soft_stop_ms = 50).is_err()); // ramp faster than max_acceleration
+        assert!(with(|c| c.joints[5].max_acceleration = 150.0).is_err()); // overrun past the margin
         assert!(with(|c| c.command_timeout_ms = 150).is_err());
         assert!(with(|c| c.segment_max_ms = 100).is_err());
         assert!(with(|c| c.joints[3].homing.fast_speed = 7.0).is_err());
         assert!(with(|c| c.joints[3].homing.switch_position = -3.0).is_err());
         assert!(with(|c| c.encoder_invalid_limit = 11).is_err());
-        assert!(with(|c| c.encoder_invalid_limit = 4).is_err()); // J3's window would exceed 1024 counts
+        assert!(with(|c| c.encoder_invalid_limit = 8).is_err()); // J3's window would exceed 1024 counts
         assert!(with(|c| c.joints[4].max_acceleration = 0.0).is_err());
     }
 

@@ -1,9 +1,13 @@
-//! Homing of one axis: fast seek, back-off, slow seek, zero, release.
+//! Homing of one axis: fast seek, back-off, slow seek, zero, release,
+//! settle.
 //!
 //! The sequencing across axes (J6; then J5, J4; then J1, J2, J3) is in the
-//! kernel; this is the per-axis state machine. It only ever produces one of
-//! three speeds (fast, slow, zero) in a known direction, and it reports the
-//! tick at which the zero must be taken from the real encoder reading.
+//! kernel; this is the per-axis state machine. It moves toward one of three
+//! speeds (fast, slow, zero) in a known direction, changing its velocity by
+//! at most the joint's acceleration per tick (the stop at the switch in the
+//! seeks is immediate); it reports the tick at which the zero must be taken
+//! from the real encoder reading, and it bounds the travel of every phase
+//! (a dead switch or a reversed motor faults before the hard stop).
 
 use crate::scalar::Scalar;
 
@@ -22,6 +26,8 @@ pub enum Phase {
     SlowSeek,
     /// Zero taken; moving off the switch by the back-off distance.
     Release,
+    /// Decelerating to rest, then resting for the settle time.
+    Settle,
     /// Finished for this run.
     Done,
 }
@@ -29,7 +35,7 @@ pub enum Phase {
 impl Phase {
     /// True in the phases where the axis moves.
     pub const fn is_moving(self) -> bool {
-        matches!(self, Phase::FastSeek | Phase::BackOff | Phase::SlowSeek | Phase::Release)
+        matches!(self, Phase::FastSeek | Phase::BackOff | Phase::SlowSeek | Phase::Release | Phase::Settle)
     }
 }
 
@@ -44,6 +50,14 @@ pub struct HomingParams<S> {
     pub backoff: S,
     /// Ticks allowed for the whole sequence of this axis.
     pub timeout_ticks: u32,
+    /// Largest velocity change per tick (rad/s).
+    pub dv: S,
+    /// Largest travel of the fast seek (rad).
+    pub max_travel: S,
+    /// Largest travel of any other phase (rad).
+    pub phase_travel: S,
+    /// Ticks at rest before the axis is done.
+    pub settle_ticks: u32,
 }
 
 /// What one homing tick asks of the kernel.
@@ -55,6 +69,8 @@ pub struct HomingStep<S> {
     pub capture_zero: bool,
     /// The axis ran out of time in this phase.
     pub timed_out: Option<Phase>,
+    /// The axis travelled farther than allowed in this phase.
+    pub too_far: Option<Phase>,
 }
 
 /// One axis's homing state.
@@ -64,11 +80,17 @@ pub struct AxisHoming<S> {
     /// Position where the switch released (back-off and release phases).
     anchor: Option<S>,
     ticks: u32,
+    /// Velocity of the last tick (rad/s).
+    vel: S,
+    /// Position where the current phase started (travel bound).
+    origin: S,
+    /// Ticks at rest in Settle.
+    rest: u32,
 }
 
 impl<S: Scalar> Default for AxisHoming<S> {
     fn default() -> Self {
-        AxisHoming { phase: Phase::Idle, anchor: None, ticks: 0 }
+        AxisHoming { phase: Phase::Idle, anchor: None, ticks: 0, vel: S::ZERO, origin: S::ZERO, rest: 0 }
     }
 }
 
@@ -79,14 +101,28 @@ impl<S: Scalar> AxisHoming<S> {
     }
     /// Puts the axis in (`true`) or out of a new run.
     pub fn reset(&mut self, in_run: bool) {
-        *self = AxisHoming { phase: if in_run { Phase::Waiting } else { Phase::Idle }, anchor: None, ticks: 0 };
+        *self = AxisHoming { phase: if in_run { Phase::Waiting } else { Phase::Idle }, ..AxisHoming::default() };
     }
     /// Starts moving if waiting (the kernel calls this when the axis's
-    /// group is reached).
-    pub fn start(&mut self) {
+    /// group is reached); `x` is the estimated position.
+    pub fn start(&mut self, x: S) {
         if self.phase == Phase::Waiting {
-            self.phase = Phase::FastSeek;
+            self.enter(Phase::FastSeek, x);
         }
+    }
+    /// The velocity of the last tick.
+    pub fn velocity(&self) -> S {
+        self.vel
+    }
+    fn enter(&mut self, phase: Phase, x: S) {
+        self.phase = phase;
+        self.anchor = None;
+        self.origin = x;
+    }
+    /// Accelerates toward `want` by at most `dv`.
+    fn ramp(&mut self, want: S, dv: S) -> S {
+        self.vel = want.clamp_between(self.vel.minus(dv), self.vel.plus(dv));
+        self.vel
     }
 
     /// Moves away from the switch until it has released and the axis is
@@ -108,51 +144,74 @@ impl<S: Scalar> AxisHoming<S> {
     /// One tick. `switch` is this axis's debounced limit input, `x` its
     /// estimated position.
     pub fn step(&mut self, switch: bool, x: S, p: &HomingParams<S>) -> HomingStep<S> {
-        let mut out = HomingStep { velocity: S::ZERO, capture_zero: false, timed_out: None };
+        let mut out = HomingStep { velocity: S::ZERO, capture_zero: false, timed_out: None, too_far: None };
         if !self.phase.is_moving() {
+            self.vel = S::ZERO;
             return out;
         }
         self.ticks = self.ticks.saturating_add(1);
         if self.ticks > p.timeout_ticks {
             out.timed_out = Some(self.phase);
+            self.vel = S::ZERO;
             return out;
         }
-        match self.phase {
-            Phase::FastSeek => {
-                if switch {
-                    // Stop for this tick; reverse from the next one.
-                    self.phase = Phase::BackOff;
-                    self.anchor = None;
-                } else {
-                    out.velocity = p.fast_toward;
-                }
+        let bound = if self.phase == Phase::FastSeek { p.max_travel } else { p.phase_travel };
+        if x.minus(self.origin).abs() > bound {
+            out.too_far = Some(self.phase);
+            self.vel = S::ZERO;
+            return out;
+        }
+        out.velocity = match self.phase {
+            Phase::FastSeek if switch => {
+                // Stop at the switch (immediate); reverse from the next tick.
+                self.enter(Phase::BackOff, x);
+                self.vel = S::ZERO;
+                S::ZERO
             }
+            Phase::FastSeek => self.ramp(p.fast_toward, p.dv),
             Phase::BackOff => {
                 if self.away(switch, x, p.backoff) {
-                    self.phase = Phase::SlowSeek;
+                    self.enter(Phase::SlowSeek, x);
+                    self.ramp(p.slow_toward, p.dv)
                 } else {
-                    out.velocity = p.fast_toward.neg();
+                    self.ramp(p.fast_toward.neg(), p.dv)
                 }
             }
-            Phase::SlowSeek => {
-                if switch {
-                    out.capture_zero = true;
-                    self.phase = Phase::Release;
-                    self.anchor = None;
-                } else {
-                    out.velocity = p.slow_toward;
-                }
+            Phase::SlowSeek if switch => {
+                out.capture_zero = true;
+                self.enter(Phase::Release, x);
+                self.vel = S::ZERO;
+                S::ZERO
             }
+            Phase::SlowSeek => self.ramp(p.slow_toward, p.dv),
             Phase::Release => {
                 if self.away(switch, x, p.backoff) {
-                    self.phase = Phase::Done;
+                    self.enter(Phase::Settle, x);
+                    self.ramp(S::ZERO, p.dv)
                 } else {
-                    out.velocity = p.fast_toward.neg();
+                    self.ramp(p.fast_toward.neg(), p.dv)
                 }
             }
-            Phase::Idle | Phase::Waiting | Phase::Done => {}
-        }
+            Phase::Settle => {
+                let v = self.ramp(S::ZERO, p.dv);
+                if v == S::ZERO {
+                    self.rest = self.rest.saturating_add(1);
+                    if self.rest >= p.settle_ticks {
+                        self.phase = Phase::Done;
+                    }
+                }
+                v
+            }
+            Phase::Idle | Phase::Waiting | Phase::Done => S::ZERO,
+        };
         out
+    }
+
+    /// Shifts the positions this axis remembers by `d` (the zero was taken:
+    /// the estimate moved by `d`).
+    pub fn shift(&mut self, d: S) {
+        self.origin = self.origin.plus(d);
+        self.anchor = self.anchor.map(|a| a.plus(d));
     }
 }
 
@@ -162,10 +221,10 @@ mod tests {
 
     /// A one-axis plant: the switch is pressed at x <= -1.0 (negative seek).
     fn simulate(start: f32) -> (Vec<Phase>, u32, f32) {
-        let p = HomingParams { fast_toward: -0.5f32, slow_toward: -0.05, backoff: 0.05, timeout_ticks: 20_000 };
+        let p = params(-0.5, -0.05, 20_000);
         let mut h = AxisHoming::default();
         h.reset(true);
-        h.start();
+        h.start(start);
         let mut x = start;
         let mut phases = vec![h.phase()];
         let mut captured = 0;
@@ -192,7 +251,7 @@ mod tests {
     fn full_sequence_in_order_with_one_zero_capture() {
         let (phases, captured, zero_at) = simulate(0.3);
         use Phase::*;
-        assert_eq!(phases, vec![FastSeek, BackOff, SlowSeek, Release, Done]);
+        assert_eq!(phases, vec![FastSeek, BackOff, SlowSeek, Release, Settle, Done]);
         assert_eq!(captured, 1);
         assert!((zero_at + 1.0).abs() < 1e-3, "{zero_at}");
     }
@@ -201,18 +260,31 @@ mod tests {
     fn starting_on_the_switch_backs_off_first() {
         let (phases, captured, _) = simulate(-1.01);
         use Phase::*;
-        assert_eq!(phases, vec![FastSeek, BackOff, SlowSeek, Release, Done]);
+        assert_eq!(phases, vec![FastSeek, BackOff, SlowSeek, Release, Settle, Done]);
         assert_eq!(captured, 1);
+    }
+
+    fn params(fast: f32, slow: f32, timeout_ticks: u32) -> HomingParams<f32> {
+        HomingParams {
+            fast_toward: fast,
+            slow_toward: slow,
+            backoff: 0.05,
+            timeout_ticks,
+            dv: 0.06,
+            max_travel: 3.0,
+            phase_travel: 0.3,
+            settle_ticks: 50,
+        }
     }
 
     #[test]
     fn times_out_when_the_switch_never_comes() {
-        let p = HomingParams { fast_toward: 1.0f32, slow_toward: 0.1, backoff: 0.05, timeout_ticks: 10 };
+        let p = params(1.0, 0.1, 10);
         let mut h = AxisHoming::default();
         h.reset(true);
-        h.start();
+        h.start(0.0);
         for _ in 0..10 {
-            assert_eq!(h.step(false, 0.0, &p).velocity, 1.0);
+            assert!(h.step(false, 0.0, &p).velocity > 0.0);
         }
         let s = h.step(false, 0.0, &p);
         assert_eq!(s.timed_out, Some(Phase::FastSeek));
@@ -220,8 +292,31 @@ mod tests {
     }
 
     #[test]
+    fn the_seek_accelerates_gradually_and_its_travel_is_bounded() {
+        let p = params(2.0, 0.1, 100_000);
+        let mut h = AxisHoming::default();
+        h.reset(true);
+        h.start(0.0);
+        let (mut x, mut prev) = (0.0f32, 0.0f32);
+        for n in 0.. {
+            let s = h.step(false, x, &p);
+            if let Some(phase) = s.too_far {
+                // A fault: the kernel zeroes every output at once.
+                assert_eq!(phase, Phase::FastSeek);
+                assert!(x > 3.0 && x < 3.01, "{x}");
+                assert_eq!(s.velocity, 0.0);
+                break;
+            }
+            assert!((s.velocity - prev).abs() <= 0.0601, "{prev} -> {}", s.velocity);
+            assert!(n < 10_000);
+            prev = s.velocity;
+            x += s.velocity * 0.001;
+        }
+    }
+
+    #[test]
     fn idle_and_waiting_axes_output_zero() {
-        let p = HomingParams { fast_toward: 1.0f32, slow_toward: 0.1, backoff: 0.05, timeout_ticks: 10 };
+        let p = params(1.0, 0.1, 10);
         let mut h = AxisHoming::default();
         assert_eq!(h.step(true, 0.0, &p).velocity, 0.0);
         h.reset(true);

@@ -1,66 +1,178 @@
-//! Linear interpolation of 25-125 Hz targets into per-tick set-points.
+//! Set-points: acceleration- and speed-limited motion toward the latest
+//! validated target, one set-point per tick.
 //!
-//! A new target starts a segment from the current set-point. Its length `n`
-//! (ticks) is the *typical* interval between targets (the kernel passes the
-//! median of recent intervals, bounded to the configured range), not the
-//! interval that just elapsed: after a dropped packet the C++ firmware used
-//! the doubled interval and stretched the next motion. The per-tick step is
-//! saturated to the joint's speed limit, and every set-point is clamped into
-//! the segment `[start, target]`, so the set-point never overshoots the target
-//! (the f32 form `x + a (z - x)` can, by rounding) and reaches it exactly.
-//! The feed-forward velocity is the set-point's actual displacement this tick
-//! times the tick rate: it is zero once the target is reached.
+//! A new target sets the goal and a cruising speed: for a stream sample,
+//! the distance over the *typical* interval between samples (the kernel
+//! passes the median of recent intervals, bounded to the configured range,
+//! so a dropped packet does not stretch the motion, as it did in the C++
+//! firmware); for a point-to-point move, the joint's speed limit. Every tick
+//! the set-point's velocity changes by at most `dv = max_acceleration / tick_hz`
+//! and a speed is taken only if the set-point can still stop **at** the
+//! target from it, decelerating by `dv` per tick. So the set-point never
+//! passes a target it is moving toward, and the arm stops where it was told,
+//! never beyond (decision 1 of the motion-safety rules, `SAFETY.md` SR-18).
 //!
-//! Arrival: a segment of `n` ticks over `d` reaches its target exactly within
-//! `2 max(n, ceil(|d| / max_step)) + 2` ticks (the factor 2 covers the step's
-//! rounding when `|d| / n` is a few LSB).
+//! The braking test. From speed `c` (toward the target), decelerating by
+//! `dv` per tick covers `S(c) = dt * sum_k (c - k dv)+`. Writing
+//! `c = (m + f) dv` with `0 <= f < 1`,
+//! `S(c) = c^2 / 2a - c dt / 2 + dv dt (f - f^2) / 2 <= c^2 / 2a - c dt / 2 + dv dt / 8`,
+//! and `S(c) = 0` for `c <= dv`. A speed `c` is taken if
+//! `c dt + S(c) + eps <= distance` (`eps` absorbs rounding). Deceleration by
+//! `dv` always keeps this true (the distance left shrinks by exactly what
+//! the braking sum loses), so the rule never needs a step it cannot take.
+//! The test is computed in rad/s (`c^2 / 2a` with `c` up to 16), where
+//! `I8F24` keeps its precision; per-tick quantities (`c dt`) are formed once.
+//!
+//! The final approach lands exactly on the target with one step no larger
+//! than `dv dt` (plus `eps`), so the set-point stops with a velocity change
+//! of at most `dv` (plus `eps / dt`, under 1 % of `dv` for the PAROL6).
+//! The feed-forward velocity is the set-point's velocity: zero at rest.
 
 use crate::scalar::Scalar;
 
-/// One axis's interpolator.
+/// Per-axis constants of the profile, in the kernel's scalar type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile<S> {
+    /// Largest change of the set-point's velocity per tick (rad/s).
+    pub dv: S,
+    /// `1 / (2 max_acceleration)` (s^2/rad).
+    pub inv_2a: S,
+    /// Tick period (s).
+    pub dt: S,
+    /// Half the tick period (s).
+    pub half_dt: S,
+    /// `dv dt / 8` (rad): the braking sum's largest excess over its bound.
+    pub brake_slack: S,
+    /// Tick rate (Hz).
+    pub tick_hz: i32,
+    /// Speed limit (rad/s).
+    pub vmax: S,
+    /// Rounding allowance of the braking test (rad).
+    pub eps: S,
+    /// Rounding allowance of the landing (rad/s): a landing changes the
+    /// velocity by at most `dv + land_slack`.
+    pub land_slack: S,
+}
+
+/// One axis's set-point generator.
 #[derive(Clone, Copy, Debug, PartialEq, Hash)]
 pub struct Interpolator<S> {
     sp: S,
-    start: S,
     target: S,
-    step: S,
+    /// Set-point velocity (rad/s), signed.
+    vel: S,
+    /// Cruising speed toward the target (rad/s, >= 0).
+    speed: S,
 }
 
 impl<S: Scalar> Interpolator<S> {
-    /// Holds position `p` (re-synchronisation to a measured position).
+    /// Holds position `p` at rest (re-synchronisation to a measured
+    /// position).
     pub fn hold(p: S) -> Self {
-        Interpolator { sp: p, start: p, target: p, step: S::ZERO }
+        Interpolator { sp: p, target: p, vel: S::ZERO, speed: S::ZERO }
     }
-    /// Starts a segment to `target`, covered in `1 / inv_n` ticks, with the
-    /// per-tick step limited to `max_step` (>= 0).
-    pub fn retarget(&mut self, target: S, inv_n: S, max_step: S) {
-        let delta = target.minus(self.sp);
-        self.step = delta.times(inv_n).saturate(max_step);
-        self.start = self.sp;
+
+    /// A generator in any state: set-point `sp`, target, velocity `vel`
+    /// (rad/s) and cruising speed. [`Self::advance`] is total over every
+    /// state; this is how the proofs start from a symbolic one.
+    pub fn from_parts(sp: S, target: S, vel: S, speed: S) -> Self {
+        Interpolator { sp, target, vel, speed: speed.abs() }
+    }
+
+    /// Moves toward `target` at a cruising speed of at most `speed` (rad/s,
+    /// `>= 0`; it is bounded to the profile's speed limit when used). The
+    /// current set-point and velocity carry over: no step in either.
+    pub fn retarget(&mut self, target: S, speed: S) {
         self.target = target;
+        self.speed = speed.abs();
     }
-    /// Advances one tick; returns `(set-point, feed-forward displacement
-    /// this tick)`.
+
+    /// Advances one tick; returns `(set-point, set-point velocity)`.
     #[inline]
-    pub fn advance(&mut self) -> (S, S) {
-        let stepped = self.sp.plus(self.step).clamp_between(self.start, self.target);
-        // A step too small to change the set-point (it rounds to zero in
-        // fixed point, or is under half an ulp of the set-point in f32) would
-        // never arrive: snap to the target. Such a remainder is below
-        // `n` ulps (about 1e-4 rad at 16 rad with n = 64), far below one
-        // tick's speed limit.
-        let next = S::select(stepped == self.sp, self.target, stepped);
-        let moved = next.minus(self.sp);
-        self.sp = next;
-        (next, moved)
+    pub fn advance(&mut self, k: &Profile<S>) -> (S, S) {
+        let r = self.target.minus(self.sp);
+        let negative = r < S::ZERO;
+        let dist = r.abs();
+        // Velocity component toward the target.
+        let v = S::select(negative, self.vel.neg(), self.vel);
+        let dv = k.dv;
+
+        // Landing: one step of exactly `dist`, within the acceleration
+        // limit, from which the next tick can stop.
+        let land = dist.times_int(k.tick_hz);
+        let slack = k.land_slack;
+        let can_land = land <= v.plus(dv).plus(slack) && land <= dv.plus(slack) && land >= v.minus(dv).minus(slack);
+
+        // Otherwise: the fastest of accelerate, cruise, decelerate that can
+        // still stop at the target.
+        let cap = self.speed.max(dv).min(k.vmax);
+        let lo = v.minus(dv).max(S::ZERO).min(v.plus(dv));
+        let c1 = v.plus(dv).min(cap).max(lo);
+        // Cruise, or at least `dv` from near rest (a crawl far below `dv`
+        // would never arrive).
+        let c2 = v.min(cap).max(dv.min(v.plus(dv))).max(lo);
+        let c = S::select(Self::can_stop(c1, dist, k), c1, S::select(Self::can_stop(c2, dist, k), c2, lo));
+
+        // Never past a target being approached (rounding), whatever `c`.
+        let step = c.times(k.dt);
+        let step = S::select(c >= S::ZERO, step.min(dist), step);
+        let moved = S::select(negative, self.sp.minus(step), self.sp.plus(step));
+        let vel = S::select(negative, c.neg(), c);
+
+        let landed_vel = S::select(negative, land.neg(), land);
+        self.sp = S::select(can_land, self.target, moved);
+        self.vel = S::select(can_land, landed_vel, vel);
+        (self.sp, self.vel)
     }
+
+    /// The braking test: can the set-point take speed `c` this tick and
+    /// still stop at `dist`?
+    #[inline(always)]
+    fn can_stop(c: S, dist: S, k: &Profile<S>) -> bool {
+        // At or below `dv` the next tick stops: the step itself must fit
+        // (its rounding is caught by the clamp to the target).
+        let brake = c.times(c).times(k.inv_2a).minus(c.times(k.half_dt)).plus(k.brake_slack).plus(k.eps);
+        let brake = S::select(c > k.dv, brake.max(S::ZERO), S::ZERO);
+        c.times(k.dt).plus(brake) <= dist
+    }
+
     /// The current set-point.
     pub fn setpoint(&self) -> S {
         self.sp
     }
-    /// The target of the current segment.
+    /// The current target.
     pub fn target(&self) -> S {
         self.target
+    }
+    /// The set-point's velocity (rad/s).
+    pub fn velocity(&self) -> S {
+        self.vel
+    }
+    /// At its target with zero velocity.
+    pub fn at_rest(&self) -> bool {
+        self.sp == self.target && self.vel == S::ZERO
+    }
+}
+
+/// The profile of a joint with speed limit `vmax` and acceleration `amax`
+/// at `tick_hz` (initialisation only).
+pub fn profile<S: Scalar>(vmax: f32, amax: f32, tick_hz: u32) -> Profile<S> {
+    let dt = 1.0 / tick_hz as f32;
+    Profile {
+        dv: S::from_f32(amax * dt),
+        inv_2a: S::from_f32(0.5 / amax),
+        dt: S::from_f32(dt),
+        half_dt: S::from_f32(dt * 0.5),
+        brake_slack: S::from_f32(amax * dt * dt * 0.125),
+        tick_hz: i32::try_from(tick_hz).unwrap_or(1000),
+        vmax: S::from_f32(vmax),
+        // 64 I8F24 LSB, about 8 f32 ulps at 16 rad: the rounding of the
+        // braking test in both variants.
+        eps: S::from_f32(4.0e-6),
+        // The landing test `dist * tick_hz <= dv` and the last step's
+        // `dv * dt <= dist` meet with no gap up to one LSB of `dv * dt`
+        // (scaled by tick_hz: 6e-5 rad/s at 1 kHz in I8F24).
+        land_slack: S::from_f32((amax * dt / 256.0).max(1.0e-4)),
     }
 }
 
@@ -69,58 +181,156 @@ mod tests {
     use super::*;
     use crate::scalar::Fx;
 
-    fn run<S: Scalar>(from: f32, to: f32, n: u32, max_step: f32) -> (u32, f32) {
+    /// Runs to arrival; checks never past the target (when approaching from
+    /// rest), velocity change per tick, and returns (ticks, peak speed).
+    fn run<S: Scalar>(from: f32, to: f32, speed: f32, vmax: f32, amax: f32) -> (u32, f32) {
+        let k = profile::<S>(vmax, amax, 1000);
         let mut it = Interpolator::hold(S::from_f32(from));
-        it.retarget(S::from_f32(to), S::from_f32(1.0 / n as f32), S::from_f32(max_step));
-        let target = S::from_f32(to);
+        it.retarget(S::from_f32(to), S::from_f32(speed));
         let (lo, hi) = (from.min(to), from.max(to));
-        for k in 1..=10_000u32 {
-            let (sp, _) = it.advance();
-            let f = sp.to_f32();
-            assert!(f >= lo - 1e-6 && f <= hi + 1e-6, "overshoot {f}");
-            if sp == target {
-                return (k, f);
+        let dv = amax / 1000.0;
+        let mut prev_v = 0.0f32;
+        let mut peak = 0.0f32;
+        for n in 1..=3_000_000u32 {
+            let (sp, v) = it.advance(&k);
+            let (f, v) = (sp.to_f32(), v.to_f32());
+            assert!(f >= lo - 1e-6 && f <= hi + 1e-6, "left [{lo}, {hi}]: {f} at tick {n}");
+            let allowed = dv + (dv / 256.0).max(1e-4) + 1e-6;
+            assert!((v - prev_v).abs() <= allowed, "dv {} > {dv} at tick {n}", (v - prev_v).abs());
+            assert!(v.abs() <= vmax + 1e-5, "speed {v}");
+            prev_v = v;
+            peak = peak.max(v.abs());
+            if it.at_rest() {
+                assert_eq!(sp, S::from_f32(to));
+                return (n, peak);
             }
         }
-        panic!("never arrived");
+        panic!("never arrived: {from} -> {to}: at {:?}", it);
     }
 
     #[test]
-    fn reaches_target_exactly_in_n_or_n_plus_one_ticks() {
-        for (a, b) in [(0.0, 0.1), (0.3, -0.7), (1.0, 1.0), (-2.0, -1.999_9)] {
-            let (k, _) = run::<f32>(a, b, 10, 1.0);
-            assert!(k <= 11, "f32 {a}->{b}: {k}");
-            let (k, _) = run::<Fx>(a, b, 10, 1.0);
-            assert!(k <= 11, "fx {a}->{b}: {k}");
+    fn reaches_target_exactly_with_limited_acceleration() {
+        for (a, b) in [(0.0, 0.1), (0.3, -0.7), (1.0, 1.0), (-2.0, -1.999_9), (-1.7, 1.7), (6.0, -6.0)] {
+            for speed in [0.05f32, 0.5, 3.0, 6.0] {
+                run::<f32>(a, b, speed, 6.0, 60.0);
+                run::<Fx>(a, b, speed, 6.0, 60.0);
+            }
         }
     }
 
     #[test]
-    fn a_step_below_half_an_ulp_still_arrives() {
-        // sp = 10: ulp 9.5e-7; a 1e-6 move in 10 ticks is 1e-7 per tick.
-        let (k, f) = run::<f32>(10.0, 10.000_001, 10, 1.0);
-        assert!(k <= 2, "{k}");
-        assert_eq!(f, 10.000_001);
-        let (k, _) = run::<Fx>(0.0, 0.000_000_1, 64, 1.0);
-        assert!(k <= 2 * 64 + 2, "{k}");
+    fn a_trapezoid_takes_the_time_it_should() {
+        // 1 rad at vmax 3, a 30: 0.1 s up, 0.1 s down (0.3 rad), 0.233 s at
+        // 3 rad/s: 0.433 s.
+        for (n, peak) in [run::<f32>(0.0, 1.0, 3.0, 3.0, 30.0), run::<Fx>(0.0, 1.0, 3.0, 3.0, 30.0)] {
+            assert!((430..=445).contains(&n), "{n}");
+            assert!(peak > 2.95, "{peak}");
+        }
+        // A short move never reaches full speed (triangle): 0.01 rad.
+        let (n, peak) = run::<f32>(0.0, 0.01, 3.0, 3.0, 30.0);
+        assert!(peak < 0.6 && (30..=45).contains(&n), "{n} {peak}");
     }
 
     #[test]
-    fn step_is_limited_to_max_velocity() {
-        // 1 rad at 3 mrad/tick takes ~334 ticks instead of 10.
-        let (k, _) = run::<f32>(0.0, 1.0, 10, 0.003);
-        assert!((333..=335).contains(&k), "{k}");
+    fn a_tiny_move_still_arrives() {
+        let (n, _) = run::<f32>(10.0, 10.000_001, 0.0, 3.0, 30.0);
+        assert!(n <= 2, "{n}");
+        let (n, _) = run::<Fx>(0.0, 0.000_000_1, 0.0, 3.0, 30.0);
+        assert!(n <= 2, "{n}");
+        let (n, _) = run::<Fx>(0.0, 0.000_04, 0.0, 3.0, 30.0);
+        assert!(n <= 4, "{n}");
     }
 
     #[test]
-    fn feed_forward_is_the_displacement_and_zero_at_rest() {
+    fn a_stream_that_stops_ends_at_its_last_target() {
+        // Samples every 10 ms moving at 3 rad/s, then nothing: the set-point
+        // stops at the last sample, never past it.
+        for variant in 0..2 {
+            let mut last = 0.0;
+            let mut max_sp = f32::MIN;
+            let mut run_it = |it: &mut dyn FnMut(f32, f32) -> f32| {
+                let mut t = 0.0;
+                for s in 0..50 {
+                    t = 0.03 * (s + 1) as f32;
+                    for _ in 0..10 {
+                        let sp = it(t, 3.0);
+                        max_sp = max_sp.max(sp);
+                    }
+                }
+                for _ in 0..1000 {
+                    let sp = it(t, 3.0);
+                    max_sp = max_sp.max(sp);
+                    last = sp;
+                }
+                t
+            };
+            let target = if variant == 0 {
+                let k = profile::<f32>(3.0, 30.0, 1000);
+                let mut ip = Interpolator::hold(0.0f32);
+                let mut prev = f32::NAN;
+                run_it(&mut |t, v| {
+                    if t != prev {
+                        ip.retarget(t, v);
+                        prev = t;
+                    }
+                    ip.advance(&k).0
+                })
+            } else {
+                let k = profile::<Fx>(3.0, 30.0, 1000);
+                let mut ip = Interpolator::hold(Fx::ZERO);
+                let mut prev = f32::NAN;
+                run_it(&mut |t, v| {
+                    if t != prev {
+                        ip.retarget(Fx::from_f32(t), Fx::from_f32(v));
+                        prev = t;
+                    }
+                    ip.advance(&k).0.to_f32()
+                })
+            };
+            assert!(max_sp <= target + 1e-6, "{max_sp} past {target}");
+            assert!((last - target).abs() < 1e-6, "{last} vs {target}");
+        }
+    }
+
+    #[test]
+    fn a_reversal_decelerates_through_zero() {
+        let k = profile::<f32>(6.0, 60.0, 1000);
         let mut it = Interpolator::hold(0.0f32);
-        it.retarget(0.01, 0.1, 1.0);
-        let (_, ff) = it.advance();
-        assert!((ff - 0.001).abs() < 1e-7);
-        for _ in 0..20 {
-            it.advance();
+        it.retarget(1.0, 6.0);
+        for _ in 0..100 {
+            it.advance(&k);
         }
-        assert_eq!(it.advance(), (0.01, 0.0));
+        let v0 = it.velocity();
+        assert!(v0 > 5.0, "{v0}");
+        it.retarget(0.0, 6.0);
+        let mut prev = v0;
+        for _ in 0..2000 {
+            let (_, v) = it.advance(&k);
+            assert!((v - prev).abs() <= 0.0601, "{prev} -> {v}");
+            prev = v;
+        }
+        assert!(it.at_rest() && it.setpoint() == 0.0);
+    }
+
+    /// Random sweep: random moves and retargets in both variants; every
+    /// step within the acceleration limit, no passing of a target being
+    /// approached from rest.
+    #[test]
+    fn sweep() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..300 {
+            let a = (rnd() * 12.0 - 6.0) as f32;
+            let b = (rnd() * 12.0 - 6.0) as f32;
+            let speed = (0.1 + rnd() * 5.9) as f32;
+            let amax = (10.0 + rnd() * 190.0) as f32;
+            run::<f32>(a, b, speed, 6.0, amax);
+            run::<Fx>(a, b, speed, 6.0, amax);
+        }
     }
 }

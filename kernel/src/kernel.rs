@@ -23,9 +23,8 @@ use self::axis::Axis;
 use self::params::Params;
 pub use self::params::TargetLimits;
 use self::supervisor::Mode;
-use crate::config::{ArmConfig, AXES};
+use crate::config::{Validated, AXES};
 use crate::homing::Phase;
-use crate::interp::Interpolator;
 use crate::scalar::Scalar;
 use crate::types::*;
 
@@ -69,13 +68,14 @@ pub struct Kernel<S: Scalar> {
 
 impl<S: Scalar> Kernel<S> {
     /// A kernel in [`State::Boot`], and the one [`Authority`] that can mint
-    /// enable capabilities for it. The configuration must be valid (check it
-    /// at compile time with [`crate::config::assert_valid`]).
+    /// enable capabilities for it. Only a configuration that passed
+    /// [`crate::config::check`] can be given ([`Validated`]; for the PAROL6,
+    /// [`crate::config::PAROL6_VALIDATED`]).
     ///
     /// Each call draws a fresh identity: the [`Authority`] of one kernel
     /// mints capabilities that every other kernel refuses
     /// ([`Reject::ForeignCapability`]).
-    pub fn new(config: &ArmConfig) -> (Self, Authority) {
+    pub fn new(config: &Validated) -> (Self, Authority) {
         let id = KernelId::fresh();
         let k = Kernel {
             id,
@@ -113,6 +113,11 @@ impl<S: Scalar> Kernel<S> {
     /// The latched fault, if any.
     pub fn fault(&self) -> Option<Fault> {
         self.fault
+    }
+
+    /// True while any set-point moves or any output is nonzero.
+    pub fn moving(&self) -> bool {
+        self.axes.iter().any(|a| !a.interp.at_rest()) || self.last_out.iter().any(|v| *v != S::ZERO)
     }
 
     /// The outputs returned by the last tick.
@@ -155,6 +160,11 @@ impl<S: Scalar> Kernel<S> {
         // (intake.rs).
         self.intake(request, sense, fault, &mut events);
 
+        // A lost host link stops a moving arm at once (supervisor.rs).
+        if sense.link_lost {
+            self.link_lost(&mut events);
+        }
+
         // 3. Supervise: candidate outputs for every axis, then the checks
         // (supervisor.rs).
         let mut out = self.supervise(limits, &mut fault, &mut events);
@@ -191,7 +201,7 @@ impl<S: Scalar> Kernel<S> {
     /// no stale set-point or interval survives a mode change.
     fn resync(&mut self) {
         for ax in self.axes.iter_mut() {
-            ax.interp = Interpolator::hold(ax.obs.x);
+            ax.resync();
         }
         self.armed = false;
         self.since_cmd = 0;

@@ -23,9 +23,9 @@
 //! [`KernelF32`] and [`KernelFx`] (fixed point, [`Fx`] = `I8F24`).
 //!
 //! ```
-//! use kernel::{config::PAROL6, EncoderSample, KernelF32, Request, Sense, State};
-//! let (mut k, authority) = KernelF32::new(&PAROL6);
-//! let sense = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None };
+//! use kernel::{config::PAROL6_VALIDATED, EncoderSample, KernelF32, Request, Sense, State};
+//! let (mut k, authority) = KernelF32::new(&PAROL6_VALIDATED);
+//! let sense = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None, link_lost: false };
 //! let out = k.tick(&sense, None);
 //! assert_eq!(out.status.state, State::Unhomed);
 //! assert!(out.act.velocity.iter().all(|v| *v == 0.0)); // nothing moves at power-on

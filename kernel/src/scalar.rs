@@ -72,6 +72,10 @@ pub trait Scalar: Copy + PartialEq + PartialOrd + core::fmt::Debug + Send + Sync
     fn times(self, rhs: Self) -> Self;
     /// Saturating multiplication by an integer.
     fn times_int(self, n: i32) -> Self;
+    /// `self / n` for `n >= 1`, correctly rounded for `f32`, truncated for
+    /// fixed point; `n < 1` gives zero. Used once per accepted target, not
+    /// per tick.
+    fn div_int(self, n: i32) -> Self;
     /// Saturating negation.
     fn neg(self) -> Self;
     /// Saturating absolute value.
@@ -165,6 +169,14 @@ impl Scalar for f32 {
     #[inline(always)]
     fn times_int(self, n: i32) -> Self {
         self * n as f32
+    }
+    #[inline(always)]
+    fn div_int(self, n: i32) -> Self {
+        if n >= 1 {
+            self / n as f32
+        } else {
+            0.0
+        }
     }
     #[inline(always)]
     fn neg(self) -> Self {
@@ -267,6 +279,14 @@ impl Scalar for Fx {
     #[inline(always)]
     fn times_int(self, n: i32) -> Self {
         self.saturating_mul_int(n)
+    }
+    #[inline(always)]
+    fn div_int(self, n: i32) -> Self {
+        if n >= 1 {
+            self.checked_div_int(n).unwrap_or(Self::ZERO)
+        } else {
+            Self::ZERO
+        }
     }
     #[inline(always)]
     fn neg(self) -> Self {

@@ -37,6 +37,25 @@ pub struct Sense {
     pub limits: u8,
     /// A hardware fault, if one was detected since the last tick.
     pub hardware_fault: Option<HardwareFault>,
+    /// The host link is known to be gone (USB: port closed by the host,
+    /// bus suspend or reset). While the arm moves this is a soft E-stop at
+    /// once; a transport that cannot tell (a UART) always passes `false`.
+    pub link_lost: bool,
+}
+
+/// How a motion target is to be followed (decided by the parser from the
+/// frame's dialect, `docs/PROTOCOL.md` section 6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MotionKind {
+    /// One sample of a stream (every driver frame; configurator frames with
+    /// a nonzero velocity): interpolated over the typical sample interval,
+    /// refused if it is farther from the set-point than a segment can
+    /// travel ([`Reject::TargetJump`]), and cut by the command timeout.
+    Stream,
+    /// A point-to-point move (a configurator frame whose six velocities are
+    /// all zero): an acceleration-limited move at the joints' speed limits
+    /// that completes without further commands and then holds.
+    GoTo,
 }
 
 /// A motion target in joint space (rad, rad/s), from the host.
@@ -47,6 +66,8 @@ pub struct MotionTarget<S> {
     /// Host velocities J1..J6: validated (finite, within the joint's limit)
     /// but not used as feed-forward; see [`crate::interp`].
     pub velocity: [S; AXES],
+    /// Stream sample or point-to-point move.
+    pub kind: MotionKind,
 }
 
 /// The identity of one kernel instance, drawn from a global counter by
@@ -98,15 +119,15 @@ impl KernelId {
 /// and it cannot be duplicated, so one token clears at most once:
 ///
 /// ```compile_fail,E0599
-/// use kernel::{config::PAROL6, KernelF32};
-/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// use kernel::{config::{PAROL6, PAROL6_VALIDATED}, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6_VALIDATED);
 /// let cap = authority.enable();
 /// let again = cap.clone();
 /// ```
 ///
 /// ```compile_fail,E0382
-/// use kernel::{config::PAROL6, KernelF32, Request};
-/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// use kernel::{config::{PAROL6, PAROL6_VALIDATED}, KernelF32, Request};
+/// let (_k, authority) = KernelF32::new(&PAROL6_VALIDATED);
 /// let cap = authority.enable();
 /// let first: Request<f32> = Request::Enable(cap);
 /// let second: Request<f32> = Request::Enable(cap); // moved: not `Copy`
@@ -135,14 +156,14 @@ impl EnableCapability {
 /// ```
 ///
 /// ```compile_fail,E0599
-/// use kernel::{config::PAROL6, KernelF32};
-/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// use kernel::{config::{PAROL6, PAROL6_VALIDATED}, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6_VALIDATED);
 /// let copy = authority.clone();
 /// ```
 ///
 /// ```compile_fail,E0382
-/// use kernel::{config::PAROL6, KernelF32};
-/// let (_k, authority) = KernelF32::new(&PAROL6);
+/// use kernel::{config::{PAROL6, PAROL6_VALIDATED}, KernelF32};
+/// let (_k, authority) = KernelF32::new(&PAROL6_VALIDATED);
 /// let first = authority;
 /// let second = authority; // moved: not `Copy`
 /// ```
@@ -150,10 +171,10 @@ impl EnableCapability {
 /// A second kernel's authority is no authority over the first:
 ///
 /// ```
-/// use kernel::{config::PAROL6, EncoderSample, Event, HardwareFault, KernelF32, Reject, Request, Sense, State};
-/// let (mut a, _authority_a) = KernelF32::new(&PAROL6);
-/// let (_b, authority_b) = KernelF32::new(&PAROL6);
-/// let ok = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None };
+/// use kernel::{config::{PAROL6, PAROL6_VALIDATED}, EncoderSample, Event, HardwareFault, KernelF32, Reject, Request, Sense, State};
+/// let (mut a, _authority_a) = KernelF32::new(&PAROL6_VALIDATED);
+/// let (_b, authority_b) = KernelF32::new(&PAROL6_VALIDATED);
+/// let ok = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None, link_lost: false };
 /// a.tick(&Sense { hardware_fault: Some(HardwareFault::TickOverrun), ..ok }, None);
 /// assert_eq!(a.state(), State::Fault);
 /// let out = a.tick(&ok, Some(Request::Enable(authority_b.enable())));
@@ -230,7 +251,7 @@ pub enum State {
     Operational,
     /// Soft E-stop: decelerating every axis together to zero.
     Stopping,
-    /// Soft E-stop: stopped, latched until enable or home.
+    /// Soft E-stop: stopped, latched until enable.
     SoftEstop,
     /// Fault: outputs zero, latched until enable.
     Fault,
@@ -303,6 +324,21 @@ pub enum FaultReason {
         /// Phase that timed out.
         phase: Phase,
     },
+    /// Homing of `axis` travelled farther in `phase` than it may (a dead
+    /// switch or a reversed motor), before reaching the hard stop.
+    HomingTravel {
+        /// Axis index.
+        axis: u8,
+        /// Phase that travelled too far.
+        phase: Phase,
+    },
+    /// The estimate of `axis` stayed farther from its commanded path than
+    /// the following-error bound (or moved against the command) for longer
+    /// than allowed: a stalled, reversed or step-losing motor.
+    FollowingError {
+        /// Axis index.
+        axis: u8,
+    },
     /// Reported by the hardware layer.
     Hardware(HardwareFault),
 }
@@ -325,8 +361,19 @@ pub enum Reject {
     NotHomed,
     /// Motion or home while homing.
     Homing,
-    /// A soft E-stop or fault is latched: enable first.
+    /// A soft E-stop or fault is latched: enable first (motion, and
+    /// `<HOME>` too: only `<ENABLE>` clears a latch).
     Latched,
+    /// A stream sample farther from the set-point (and from the previous
+    /// target) than one segment can travel at the joint's speed limit plus
+    /// the tolerance: a stale or desynchronised host.
+    TargetJump {
+        /// Axis index.
+        axis: u8,
+    },
+    /// An internal limit was hit (never expected for a checked
+    /// configuration); nothing was applied.
+    Internal,
     /// The soft E-stop ramp is still running.
     Stopping,
     /// A target position outside the joint's limits.
@@ -387,15 +434,33 @@ pub enum Event {
     },
     /// A fault was latched (homing failures included).
     Fault(FaultReason),
-    /// The command timeout expired; the soft E-stop ramp started.
+    /// The soft E-stop ramp started.
     SoftEstop {
-        /// Time since the last accepted motion command (ms).
-        since_command_ms: u32,
+        /// Why.
+        cause: StopCause,
     },
+    /// The command timeout expired with every joint at rest at its target:
+    /// the arm holds, nothing is latched, the next command continues.
+    Holding,
+    /// `<HOME>` while the arm moved: a controlled stop first, then homing
+    /// starts (reported by [`Event::HomingStarted`]).
+    HomingAfterStop,
     /// The soft E-stop ramp reached zero.
     Stopped,
     /// A latched stop or fault was cleared; the new state.
     Enabled(State),
+}
+
+/// Why a soft E-stop started.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopCause {
+    /// No motion command for longer than the timeout while moving.
+    CommandTimeout {
+        /// Time since the last accepted motion command (ms).
+        since_command_ms: u32,
+    },
+    /// The transport reported the host link gone while moving.
+    LinkLost,
 }
 
 /// Maximum events per tick: one per source (request, sensing/supervision

@@ -3,14 +3,14 @@
 //! kernel refuses it with `Reject::ForeignCapability`, reported as a
 //! `Rejected` event, and clears nothing. Both numeric variants.
 
-use kernel::config::PAROL6;
+use kernel::config::PAROL6_VALIDATED;
 use kernel::{
     EncoderSample, Event, FaultReason, HardwareFault, Kernel, Reject, Request, RequestKind, Scalar, Sense, State,
     TickOutput,
 };
 
 fn quiet() -> Sense {
-    Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None }
+    Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None, link_lost: false }
 }
 
 fn overrun() -> Sense {
@@ -25,7 +25,7 @@ fn refused_as_foreign<S: Scalar>(out: &TickOutput<S>) -> bool {
 
 /// A kernel latched in Fault by a hardware overrun (cause gone afterwards).
 fn latched<S: Scalar>() -> (Kernel<S>, kernel::Authority) {
-    let (mut k, auth) = Kernel::<S>::new(&PAROL6);
+    let (mut k, auth) = Kernel::<S>::new(&PAROL6_VALIDATED);
     assert_eq!(k.tick(&quiet(), None).status.state, State::Unhomed);
     let out = k.tick(&overrun(), None);
     assert_eq!(out.status.state, State::Fault);
@@ -71,8 +71,8 @@ fn foreign_capability_is_refused_and_the_arm_stays_latched_fx() {
 /// The foreign check comes first: in a state with nothing to clear the
 /// refusal still names the capability, not the state.
 fn foreign_capability_is_refused_in_every_state<S: Scalar>() {
-    let (mut k, _auth) = Kernel::<S>::new(&PAROL6);
-    let (_other, foreign) = Kernel::<S>::new(&PAROL6);
+    let (mut k, _auth) = Kernel::<S>::new(&PAROL6_VALIDATED);
+    let (_other, foreign) = Kernel::<S>::new(&PAROL6_VALIDATED);
     let out = k.tick(&quiet(), Some(Request::Enable(foreign.enable())));
     assert!(out.events.iter().any(|e| *e == Event::Ready));
     assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::ForeignCapability, .. })));

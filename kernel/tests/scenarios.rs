@@ -327,7 +327,11 @@ fn nan_and_out_of_range_targets_are_rejected_whole<S: Scalar>() {
     let before: Vec<f32> = r.last.unwrap().status.setpoint.iter().map(|s| s.to_f32()).collect();
     let mut bad = q.map(|x| S::from_f32(x as f32));
     bad[3] = S::from_f32(10.0); // J4 far outside its limit
-    let out = r.tick(Some(Request::Motion(kernel::MotionTarget { position: bad, velocity: [S::ZERO; AXES] })));
+    let out = r.tick(Some(Request::Motion(kernel::MotionTarget {
+        position: bad,
+        velocity: [S::ZERO; AXES],
+        kind: kernel::MotionKind::Stream,
+    })));
     assert!(out.events.iter().any(
         |e| *e == Event::Rejected { request: RequestKind::Motion, reason: Reject::PositionOutOfLimits { axis: 3 } }
     ));
@@ -356,7 +360,7 @@ fn targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected<S: Scala
     let q = r.plant.q.map(|x| S::from_f32(x as f32));
     let j = &PAROL6.joints[2];
     let at = |pos: S, vel: S| {
-        let mut t = kernel::MotionTarget { position: q, velocity: [S::ZERO; AXES] };
+        let mut t = kernel::MotionTarget { position: q, velocity: [S::ZERO; AXES], kind: kernel::MotionKind::Stream };
         t.position[2] = pos;
         t.velocity[2] = vel;
         Request::Motion(t)

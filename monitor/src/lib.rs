@@ -43,11 +43,11 @@
 //! A std caller with a `TickOutput<f32>` per tick:
 //!
 //! ```
-//! use kernel::{config::PAROL6, EncoderSample, KernelF32, Request, Sense};
+//! use kernel::{config::{PAROL6, PAROL6_VALIDATED}, EncoderSample, KernelF32, Request, Sense};
 //! use monitor::{Monitor, Sent};
-//! let (mut k, _auth) = KernelF32::new(&PAROL6);
+//! let (mut k, _auth) = KernelF32::new(&PAROL6_VALIDATED);
 //! let mut mon = Monitor::<f32>::new(&PAROL6);
-//! let sense = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None };
+//! let sense = Sense { encoders: [EncoderSample::Count(1000); 6], limits: 0, hardware_fault: None, link_lost: false };
 //! let req: Option<Request<f32>> = Some(Request::Home);
 //! let sent = req.as_ref().map(Sent::of); // before the kernel takes the request
 //! let out = k.tick(&sense, req);
@@ -282,7 +282,7 @@ impl Stats {
 }
 
 /// Names of the fault kinds counted in [`Stats::faults`].
-pub const FAULT_KINDS: [&str; 9] = [
+pub const FAULT_KINDS: [&str; 11] = [
     "EncoderLost",
     "EncoderJump",
     "EncoderNotReady",
@@ -292,6 +292,8 @@ pub const FAULT_KINDS: [&str; 9] = [
     "Numeric",
     "HomingTimeout",
     "Hardware",
+    "HomingTravel",
+    "FollowingError",
 ];
 
 /// Index of a fault reason in [`FAULT_KINDS`].
@@ -306,6 +308,8 @@ pub fn fault_kind(r: &FaultReason) -> usize {
         FaultReason::Numeric { .. } => 6,
         FaultReason::HomingTimeout { .. } => 7,
         FaultReason::Hardware(_) => 8,
+        FaultReason::HomingTravel { .. } => 9,
+        FaultReason::FollowingError { .. } => 10,
     }
 }
 

@@ -47,6 +47,14 @@ pub struct Plant {
     pub disturbance: [f64; AXES],
     /// A hardware fault reported with the next sensors.
     pub hardware_fault: Option<HardwareFault>,
+    /// The host link is reported lost (USB port closed).
+    pub link_lost: bool,
+    /// Joints whose motor turns the wrong way (DIR wired inverted).
+    pub reversed: u8,
+    /// Joints whose motor does not turn (stalled, driver off, lost steps).
+    pub stalled: u8,
+    /// Joints whose limit switch never closes (broken wire).
+    pub dead_switch: u8,
 }
 
 impl Plant {
@@ -62,7 +70,17 @@ impl Plant {
             force_switch: 0,
             disturbance: [0.0; AXES],
             hardware_fault: None,
+            link_lost: false,
+            reversed: 0,
+            stalled: 0,
+            dead_switch: 0,
         }
+    }
+
+    /// The same arm with another configuration (another tick rate, say).
+    pub fn with_config(mut self, cfg: ArmConfig) -> Self {
+        self.cfg = cfg;
+        self
     }
 
     /// The arm at rest at `q` with [`DEFAULT_OFFSETS`].
@@ -92,7 +110,7 @@ impl Plant {
                 Direction::Positive => *q >= s,
                 Direction::Negative => *q <= s,
             };
-            if pressed {
+            if pressed && self.dead_switch & crate::bit(i) == 0 {
                 m |= crate::bit(i);
             }
         }
@@ -109,16 +127,19 @@ impl Plant {
                 EncoderFault::OutOfRange(c) => EncoderSample::Count(c),
             };
         }
-        Sense { encoders: enc, limits: self.switches(), hardware_fault: self.hardware_fault }
+        Sense { encoders: enc, limits: self.switches(), hardware_fault: self.hardware_fault, link_lost: self.link_lost }
     }
 
     /// Applies step rates for one tick.
     pub fn apply(&mut self, step_rate: &[i32; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
-        for (((q, r), j), d) in
-            self.q.iter_mut().zip(step_rate.iter()).zip(self.cfg.joints.iter()).zip(self.disturbance.iter())
+        for (i, (((q, r), j), d)) in
+            self.q.iter_mut().zip(step_rate.iter()).zip(self.cfg.joints.iter()).zip(self.disturbance.iter()).enumerate()
         {
-            *q += (f64::from(*r) / j.steps_per_rad() + d) * dt;
+            let m = crate::bit(i);
+            let dir = if self.reversed & m != 0 { -1.0 } else { 1.0 };
+            let turns = if self.stalled & m != 0 { 0.0 } else { 1.0 };
+            *q += (dir * turns * f64::from(*r) / j.steps_per_rad() + d) * dt;
         }
     }
 
@@ -129,6 +150,10 @@ impl Plant {
         self.force_switch = 0;
         self.disturbance = [0.0; AXES];
         self.hardware_fault = None;
+        self.link_lost = false;
+        self.reversed = 0;
+        self.stalled = 0;
+        self.dead_switch = 0;
     }
 
     /// True if nothing is injected.
@@ -138,6 +163,10 @@ impl Plant {
             && self.force_switch == 0
             && self.disturbance == [0.0; AXES]
             && self.hardware_fault.is_none()
+            && !self.link_lost
+            && self.reversed == 0
+            && self.stalled == 0
+            && self.dead_switch == 0
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::plant::{Plant, Witness};
-use kernel::config::PAROL6;
+use kernel::config::{PAROL6, PAROL6_VALIDATED};
 use kernel::{Authority, Kernel, KernelF32};
 use std::format;
 use std::string::ToString;
@@ -20,7 +20,7 @@ struct Rig {
 
 impl Rig {
     fn new() -> Self {
-        let (k, auth) = Kernel::new(&PAROL6);
+        let (k, auth) = Kernel::new(&PAROL6_VALIDATED);
         Rig { k, auth, plant: Plant::at(START), wit: Witness::new(), mon: Monitor::new(&PAROL6) }
     }
 
@@ -74,7 +74,7 @@ impl Rig {
     }
 
     fn motion(&mut self, p: [f64; AXES]) -> TickOutput<f32> {
-        let t = MotionTarget { position: p.map(|x| x as f32), velocity: [0.0; AXES] };
+        let t = MotionTarget { position: p.map(|x| x as f32), velocity: [0.0; AXES], kind: kernel::MotionKind::Stream };
         self.tick(Some(Request::Motion(t)))
     }
 

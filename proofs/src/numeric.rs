@@ -126,8 +126,8 @@ fn unwrapping_is_exact_and_continuous() {
 /// measurement (0 < alpha < 1): a step never amplifies a residual.
 fn observer<S: Sym>() {
     let g = ObserverGains {
-        alpha: S::from_f32(PROOF_CONFIG.alpha),
-        beta_hz: S::from_f32(PROOF_CONFIG.beta * PROOF_CONFIG.tick_hz as f32),
+        alpha: S::from_f32(PROOF_CONFIG.alpha()),
+        beta_hz: S::from_f32(PROOF_CONFIG.beta() * PROOF_CONFIG.tick_hz as f32),
         dt: S::from_f32(1.0 / PROOF_CONFIG.tick_hz as f32),
     };
     let (b32, b64) = (S::from_f32(32.0), S::from_f32(64.0));
@@ -155,47 +155,42 @@ fn observer_correction_is_between_prediction_and_measurement_fx() {
     observer::<Fx>();
 }
 
-/// SR-18: the interpolator never leaves the segment, never moves more than
-/// one tick's speed limit (plus one rounding unit), and arrives exactly.
+/// SR-18, SR-27: one set-point step from any state (set-point and target
+/// in +-16 rad, velocity and cruising speed within the joint's limit):
+/// the velocity stays within the limit and changes by at most one tick's
+/// acceleration (plus the landing allowance), and a set-point moving toward
+/// its target never passes it. A one-step invariant: no loop, no unwinding.
 fn interpolator<S: Sym>() {
     let j = any_joint();
-    let max_step = S::from_f32(PROOF_CONFIG.joints[j].max_velocity / PROOF_CONFIG.tick_hz as f32);
+    let jc = &PROOF_CONFIG.joints[j];
+    let k = kernel::interp::profile::<S>(jc.max_velocity, jc.max_acceleration, PROOF_CONFIG.tick_hz);
     let lim = S::from_f32(16.0);
-    let (from, to) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
-    kani::cover!(from.abs() == lim, "segment from the edge of the range");
-    let n: u8 = 1 + kani::any::<u8>() % 64;
-    kani::cover!(n == 64, "longest segment");
-    kani::cover!(from != to, "a real move");
-    let mut it = Interpolator::hold(from);
-    it.retarget(to, S::from_f32(1.0 / f32::from(n)), max_step);
-    let (lo, hi) = (from.min(to), from.max(to));
-    // One f32 rounding unit at |sp| <= 16 is 1.9e-6.
-    let slack = S::from_f32(2e-6);
-    // Bounded by 2 * max(n, |d| / max_step) + 2 <= 2 * 10_667 + 2 here
-    // (|d| <= 32 rad at 3 mrad per tick); the shim runs the loop, Kani needs
-    // an unwind bound this large only for this harness.
-    let mut prev = from;
-    for _ in 0..21_400 {
-        let (sp, moved) = it.advance();
-        assert!(sp >= lo && sp <= hi, "overshoot");
-        assert!(moved.abs() <= max_step.plus(slack));
-        assert!(sp.minus(prev) == moved);
-        prev = sp;
-        if sp == to {
-            return;
-        }
+    let (sp, to) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
+    let vel = any_in(k.vmax.neg(), k.vmax);
+    let speed = any_in(S::ZERO, k.vmax);
+    kani::cover!(sp.abs() == lim, "set-point at the edge of the range");
+    kani::cover!(sp != to && vel == S::ZERO, "a move from rest");
+    kani::cover!(vel.abs() == k.vmax, "at full speed");
+    kani::cover!((to > sp && vel < S::ZERO) || (to < sp && vel > S::ZERO), "moving away from the target");
+    let mut it = Interpolator::from_parts(sp, to, vel, speed);
+    let (sp2, vel2) = it.advance(&k);
+    // The landing may change the velocity by dv plus 2 eps per tick.
+    let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
+    assert!(vel2.abs() <= k.vmax.plus(slack), "speed above the limit");
+    assert!(vel2.minus(vel).abs() <= k.dv.plus(slack), "acceleration above the limit");
+    let toward = (to >= sp && vel2 >= S::ZERO) || (to <= sp && vel2 <= S::ZERO);
+    if toward {
+        kani::cover!(sp2 == to, "lands exactly");
+        assert!(sp2.minus(sp).abs() <= to.minus(sp).abs(), "passed the target");
     }
-    panic!("interpolator did not arrive");
 }
 
 #[kani::proof]
-#[kani::unwind(21401)]
-fn interpolator_stays_in_segment_and_arrives_f32() {
+fn interpolator_step_is_acceleration_limited_and_never_passes_f32() {
     interpolator::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(21401)]
-fn interpolator_stays_in_segment_and_arrives_fx() {
+fn interpolator_step_is_acceleration_limited_and_never_passes_fx() {
     interpolator::<Fx>();
 }
 

@@ -1,6 +1,6 @@
 //! The wire boundary: framer and parser (SR-23, SR-24).
 
-use crate::setup::PROOF_CONFIG;
+use crate::setup::PROOF_VALIDATED;
 use kernel::{Fx, Scalar, TargetLimits};
 use protocol::framer::Framer;
 use protocol::parse::{DialectLock, Parser};
@@ -31,11 +31,11 @@ fn parser<S: Scalar>() {
         1 => DialectLock::DriverOnly,
         _ => DialectLock::ConfiguratorOnly,
     };
-    let p = Parser::<S>::new(&PROOF_CONFIG, lock);
+    let p = Parser::<S>::new(&PROOF_VALIDATED, lock);
     let r = p.parse(&b[..len]);
     kani::cover!(r.is_err(), "rejected");
     if let Ok(Command::Motion { target, .. }) = r {
-        assert!(TargetLimits::<S>::new(&PROOF_CONFIG).check(&target).is_ok());
+        assert!(TargetLimits::<S>::new(&PROOF_VALIDATED).check(&target).is_ok());
     }
 }
 

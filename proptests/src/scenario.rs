@@ -5,8 +5,10 @@
 use std::collections::VecDeque;
 use std::sync::OnceLock;
 
-use kernel::config::{AXES, PAROL6};
-use kernel::{Authority, Fx, HardwareFault, Kernel, MotionTarget, Request, Scalar, Sense, State, TickOutput};
+use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
+use kernel::{
+    Authority, Fx, HardwareFault, Kernel, MotionKind, MotionTarget, Request, Scalar, Sense, State, TickOutput,
+};
 use proptest::prelude::*;
 
 use monitor::plant::{EncoderFault, Plant, Witness, DEFAULT_OFFSETS};
@@ -501,7 +503,7 @@ impl<S: Variant> Sut<S> {
 
     /// Power-on at `q`.
     pub fn fresh(q: [f64; AXES], offset: [f64; AXES]) -> Self {
-        let (k, auth) = Kernel::new(&PAROL6);
+        let (k, auth) = Kernel::new(&PAROL6_VALIDATED);
         Self::from_parts(k, auth, Plant::new(q, offset), Monitor::new(&PAROL6), 0)
     }
 
@@ -531,11 +533,11 @@ impl<S: Variant> Sut<S> {
         let conv = |a: [f64; AXES]| a.map(|x| S::from_f32(x as f32));
         match *r {
             Req::Motion(p, v) => {
-                let t = MotionTarget { position: conv(p), velocity: conv(v) };
+                let t = MotionTarget { position: conv(p), velocity: conv(v), kind: MotionKind::Stream };
                 Request::Motion(t)
             }
             Req::BadMotion { base, axis, bad } => {
-                let mut t = MotionTarget { position: conv(base), velocity: [S::ZERO; AXES] };
+                let mut t = MotionTarget { position: conv(base), velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
                 let j = &PAROL6.joints[axis];
                 match bad {
                     Bad::OutOfLimits(e) => {

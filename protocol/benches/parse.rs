@@ -2,7 +2,7 @@
 //! throughput (bytes of input per second); nothing is asserted.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use kernel::config::PAROL6;
+use kernel::config::{PAROL6, PAROL6_VALIDATED};
 use kernel::Fx;
 use protocol::receiver::Receiver;
 use protocol::{DialectLock, Parser, ProtocolConfig};
@@ -13,9 +13,9 @@ const CONFIG: &[u8] = b"<42,0.1234,-0.5000,1.0000,0.2500,-1.5708,3.1416,0.0500,-
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("parse_driver_frame");
     g.throughput(Throughput::Bytes(DRIVER.len() as u64));
-    let pf: Parser<f32> = Parser::new(&PAROL6, DialectLock::Auto);
+    let pf: Parser<f32> = Parser::new(&PAROL6_VALIDATED, DialectLock::Auto);
     g.bench_function("f32", |b| b.iter(|| pf.parse(black_box(DRIVER))));
-    let px: Parser<Fx> = Parser::new(&PAROL6, DialectLock::Auto);
+    let px: Parser<Fx> = Parser::new(&PAROL6_VALIDATED, DialectLock::Auto);
     g.bench_function("fx", |b| b.iter(|| px.parse(black_box(DRIVER))));
     g.finish();
 
@@ -30,7 +30,7 @@ fn bench(c: &mut Criterion) {
     line.push(b'\n');
     let mut g = c.benchmark_group("receiver_driver_line");
     g.throughput(Throughput::Bytes(line.len() as u64));
-    let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+    let mut rx: Receiver<f32> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
     g.bench_function("f32", |b| {
         b.iter(|| {
             let mut n = 0u32;

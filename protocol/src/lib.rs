@@ -27,9 +27,9 @@
 //! The project's protocol reference is `docs/PROTOCOL.md`.
 //!
 //! ```
-//! use kernel::config::PAROL6;
+//! use kernel::config::{PAROL6, PAROL6_VALIDATED};
 //! use protocol::{receiver::{Receiver, Received}, Command, ProtocolConfig};
-//! let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+//! let mut rx: Receiver<f32> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
 //! let mut got = None;
 //! for &b in b"<HOME>\r\n" {
 //!     if let Some(r) = rx.push(b, 0) {

@@ -29,8 +29,8 @@
 //! `limit_min <= p <= limit_max` and `|v| <= max_velocity`, with the limits
 //! checked by the kernel's own [`kernel::TargetLimits`].
 
-use kernel::config::{ArmConfig, AXES};
-use kernel::{Authority, EnableCapability, MotionTarget, Request, Scalar};
+use kernel::config::{Validated, AXES};
+use kernel::{Authority, EnableCapability, MotionKind, MotionTarget, Request, Scalar};
 
 /// Number of comma-separated fields of a motion frame (SEQ + 12 numbers).
 pub const MOTION_FIELDS: usize = 13;
@@ -205,7 +205,7 @@ pub struct Limits<S> {
 impl<S: Scalar> Limits<S> {
     /// The limits of `config`: the kernel's own [`kernel::TargetLimits`], so
     /// the parser and the kernel can never disagree on a target.
-    pub fn new(config: &ArmConfig) -> Self {
+    pub fn new(config: &Validated) -> Self {
         Limits { inner: kernel::TargetLimits::new(config) }
     }
 
@@ -256,7 +256,7 @@ fn sat_u8(n: usize) -> u8 {
 
 impl<S: Scalar> Parser<S> {
     /// A parser for `config`'s limits with the given lock.
-    pub fn new(config: &ArmConfig, lock: DialectLock) -> Self {
+    pub fn new(config: &Validated, lock: DialectLock) -> Self {
         Parser { limits: Limits::new(config), lock }
     }
 
@@ -346,10 +346,18 @@ impl<S: Scalar> Parser<S> {
                 Err(ParseError::NonFinite { field: idx })
             }
         };
-        let mut target = MotionTarget { position: [S::ZERO; AXES], velocity: [S::ZERO; AXES] };
+        let mut target =
+            MotionTarget { position: [S::ZERO; AXES], velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
         for ((p, v), &(pf, vf)) in target.position.iter_mut().zip(target.velocity.iter_mut()).zip(dialect.fields()) {
             *p = value(pf)?;
             *v = value(vf)?;
+        }
+        // The configurator's "go to" is one frame with every velocity zero
+        // (docs/PROTOCOL.md section 6): a point-to-point move. Every driver
+        // frame, and a configurator frame with a velocity, is a stream
+        // sample.
+        if dialect == Dialect::Configurator && target.velocity.iter().all(|v| *v == S::ZERO) {
+            target.kind = MotionKind::GoTo;
         }
         self.limits.check(&target)?;
         Ok(Command::Motion { seq, dialect, target })
@@ -388,10 +396,10 @@ pub fn format_motion<S: Scalar>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kernel::config::PAROL6;
+    use kernel::config::PAROL6_VALIDATED;
 
     fn p() -> Parser<f32> {
-        Parser::new(&PAROL6, DialectLock::Auto)
+        Parser::new(&PAROL6_VALIDATED, DialectLock::Auto)
     }
 
     #[test]

@@ -22,6 +22,7 @@
 //!   [`Telemetry::Lost`] ahead of the next element that fits.
 
 use crate::Command;
+use core::sync::atomic::{AtomicBool, Ordering};
 use heapless::spsc::{Consumer, Producer, Queue};
 use kernel::{Event, Status};
 
@@ -64,6 +65,10 @@ pub struct QueueFull<S> {
 pub struct Link<S, const C: usize = 8, const T: usize = 16> {
     commands: Queue<Command<S>, C>,
     telemetry: Queue<Telemetry<S>, T>,
+    /// The host link is gone (set by the main loop, read by the tick). A
+    /// single flag, written by one side only: `Relaxed` suffices (no data
+    /// is published through it).
+    link_lost: AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for Link<S, C, T> {
@@ -88,14 +93,15 @@ impl<S, const C: usize, const T: usize> Link<S, C, T> {
     pub const fn new() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::SIZES_OK;
-        Link { commands: Queue::new(), telemetry: Queue::new() }
+        Link { commands: Queue::new(), telemetry: Queue::new(), link_lost: AtomicBool::new(false) }
     }
 
     /// Splits into the main loop's end and the tick's end.
     pub fn split(&mut self) -> (HostEnd<'_, S, C, T>, TickEnd<'_, S, C, T>) {
         let (cmd_tx, cmd_rx) = self.commands.split();
         let (tel_tx, tel_rx) = self.telemetry.split();
-        (HostEnd { cmd_tx, tel_rx, refused: 0 }, TickEnd { cmd_rx, tel_tx, lost: 0 })
+        let flag = &self.link_lost;
+        (HostEnd { cmd_tx, tel_rx, refused: 0, link_lost: flag }, TickEnd { cmd_rx, tel_tx, lost: 0, link_lost: flag })
     }
 }
 
@@ -104,6 +110,7 @@ pub struct HostEnd<'a, S, const C: usize, const T: usize> {
     cmd_tx: Producer<'a, Command<S>, C>,
     tel_rx: Consumer<'a, Telemetry<S>, T>,
     refused: u32,
+    link_lost: &'a AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for HostEnd<'_, S, C, T> {
@@ -133,6 +140,10 @@ impl<S: Copy, const C: usize, const T: usize> HostEnd<'_, S, C, T> {
     pub fn refused(&self) -> u32 {
         self.refused
     }
+    /// Tells the tick whether the transport knows the host link is gone.
+    pub fn set_link_lost(&self, lost: bool) {
+        self.link_lost.store(lost, Ordering::Relaxed);
+    }
 }
 
 /// The tick's end: receives commands, sends telemetry.
@@ -140,6 +151,7 @@ pub struct TickEnd<'a, S, const C: usize, const T: usize> {
     cmd_rx: Consumer<'a, Command<S>, C>,
     tel_tx: Producer<'a, Telemetry<S>, T>,
     lost: u32,
+    link_lost: &'a AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for TickEnd<'_, S, C, T> {
@@ -176,6 +188,10 @@ impl<S: Copy, const C: usize, const T: usize> TickEnd<'_, S, C, T> {
     pub fn lost(&self) -> u32 {
         self.lost
     }
+    /// The host link is known to be gone (set by the main loop).
+    pub fn link_lost(&self) -> bool {
+        self.link_lost.load(Ordering::Relaxed)
+    }
 }
 
 #[cfg(test)]
@@ -187,7 +203,7 @@ mod tests {
         Command::Motion {
             seq,
             dialect: crate::Dialect::Driver,
-            target: MotionTarget { position: [0.0; 6], velocity: [0.0; 6] },
+            target: MotionTarget { position: [0.0; 6], velocity: [0.0; 6], kind: kernel::MotionKind::Stream },
         }
     }
 
@@ -248,7 +264,11 @@ mod tests {
                     let c = Command::Motion {
                         seq,
                         dialect: crate::Dialect::Driver,
-                        target: MotionTarget { position: [seq as f32; 6], velocity: [-(seq as f32); 6] },
+                        target: MotionTarget {
+                            position: [seq as f32; 6],
+                            velocity: [-(seq as f32); 6],
+                            kind: kernel::MotionKind::Stream,
+                        },
                     };
                     if host.send(c).is_ok() {
                         seq += 1;

@@ -10,7 +10,7 @@ use crate::parse::{Command, Parser};
 use crate::report::{reject_line, resync_line, stale_line};
 use crate::seq::{Resync, SeqCounters, SeqFilter, Stale, Verdict};
 use crate::{Full, Line, ProtocolConfig, INPUT_LINE_CAP};
-use kernel::config::ArmConfig;
+use kernel::config::Validated;
 use kernel::Scalar;
 
 pub use crate::Rejection;
@@ -76,7 +76,7 @@ pub struct Receiver<S, const N: usize = INPUT_LINE_CAP> {
 
 impl<S: Scalar, const N: usize> Receiver<S, N> {
     /// A receiver for `arm`'s limits with protocol settings `cfg`.
-    pub fn new(arm: &ArmConfig, cfg: ProtocolConfig) -> Self {
+    pub fn new(arm: &Validated, cfg: ProtocolConfig) -> Self {
         Receiver {
             framer: Framer::new(),
             parser: Parser::new(arm, cfg.lock),
@@ -139,7 +139,7 @@ impl<S: Scalar, const N: usize> Receiver<S, N> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kernel::config::PAROL6;
+    use kernel::config::PAROL6_VALIDATED;
 
     fn feed(rx: &mut Receiver<f32>, s: &[u8], now: u32) -> Vec<Received<f32>> {
         s.iter().filter_map(|&b| rx.push(b, now)).collect()
@@ -147,7 +147,7 @@ mod tests {
 
     #[test]
     fn home_resets_sequence() {
-        let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+        let mut rx: Receiver<f32> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
         let z = b"<5,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000>\n";
         assert!(matches!(feed(&mut rx, z, 0)[..], [Received::Accepted { .. }]));
         assert!(matches!(feed(&mut rx, z, 1)[..], [Received::Dropped(_)]));

@@ -16,7 +16,7 @@ use crate::text::{push_byte, push_hex64, push_hex8, push_i64, push_str, push_u32
 use crate::{Command, Full, Line, Rejection};
 use kernel::config::{ArmConfig, HomingConfig, JointConfig};
 use kernel::homing::Phase;
-use kernel::{Event, FaultReason, HardwareFault, Reject, RequestKind, State};
+use kernel::{Event, FaultReason, HardwareFault, Reject, RequestKind, State, StopCause};
 
 /// Protocol revision printed in the banner.
 pub const PROTOCOL_REVISION: u32 = 1;
@@ -52,6 +52,7 @@ const fn phase_name(p: Phase) -> &'static str {
         Phase::BackOff => "BACK_OFF",
         Phase::SlowSeek => "SLOW_SEEK",
         Phase::Release => "RELEASE",
+        Phase::Settle => "SETTLE",
         Phase::Done => "DONE",
     }
 }
@@ -103,6 +104,12 @@ fn fault_reason(out: &mut Line, r: &FaultReason) -> Result<(), Full> {
             push_str(out, " phase=")?;
             push_str(out, phase_name(phase))
         }
+        FaultReason::HomingTravel { axis, phase } => {
+            named_joint(out, "HOMING_TRAVEL", axis)?;
+            push_str(out, " phase=")?;
+            push_str(out, phase_name(phase))
+        }
+        FaultReason::FollowingError { axis } => named_joint(out, "FOLLOWING_ERROR", axis),
         FaultReason::Hardware(h) => {
             push_str(out, "HARDWARE ")?;
             match h {
@@ -150,6 +157,8 @@ fn kernel_reject(out: &mut Line, r: &Reject) -> Result<(), Full> {
             fault_reason(out, &reason)
         }
         Reject::ForeignCapability => push_str(out, "FOREIGN_CAPABILITY"),
+        Reject::TargetJump { axis } => named_joint(out, "TARGET_JUMP", axis),
+        Reject::Internal => push_str(out, "INTERNAL"),
     }
 }
 
@@ -158,7 +167,7 @@ fn kernel_reject(out: &mut Line, r: &Reject) -> Result<(), Full> {
 /// `READY`, `REFUSED <request> <reason>`, `HOMING_QUEUED ...`, `HOMING_STARTED mask=0x..`,
 /// `HOMING_DONE mask=0x..`, `HOMING_FAULT <reason>` (homing timeouts),
 /// `FAULT <reason>` (every other fault), `SOFT_ESTOP since_cmd_ms=<n>`,
-/// `STOPPED`, `ENABLED state=<state>`.
+/// `SOFT_ESTOP LINK_LOST`, `HOLDING ...`, `STOPPED`, `ENABLED state=<state>`.
 pub fn event_line(out: &mut Line, e: &Event) -> Result<(), Full> {
     out.clear();
     match e {
@@ -178,7 +187,7 @@ pub fn event_line(out: &mut Line, e: &Event) -> Result<(), Full> {
             push_str(out, "HOMING_DONE mask=")?;
             push_hex8(out, *mask)?;
         }
-        Event::Fault(r @ FaultReason::HomingTimeout { .. }) => {
+        Event::Fault(r @ (FaultReason::HomingTimeout { .. } | FaultReason::HomingTravel { .. })) => {
             push_str(out, "HOMING_FAULT ")?;
             fault_reason(out, r)?;
         }
@@ -186,10 +195,13 @@ pub fn event_line(out: &mut Line, e: &Event) -> Result<(), Full> {
             push_str(out, "FAULT ")?;
             fault_reason(out, r)?;
         }
-        Event::SoftEstop { since_command_ms } => {
+        Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms } } => {
             push_str(out, "SOFT_ESTOP")?;
             kv(out, "since_cmd_ms", *since_command_ms)?;
         }
+        Event::SoftEstop { cause: StopCause::LinkLost } => push_str(out, "SOFT_ESTOP LINK_LOST")?,
+        Event::Holding => push_str(out, "HOLDING at rest, timeout disarmed")?,
+        Event::HomingAfterStop => push_str(out, "HOMING_QUEUED stopping first")?,
         Event::Stopped => push_str(out, "STOPPED")?,
         Event::Enabled(s) => {
             push_str(out, "ENABLED state=")?;
@@ -446,13 +458,14 @@ const fn fnv_bool(h: u64, x: bool) -> u64 {
 const fn fnv_homing(h: u64, c: &HomingConfig) -> u64 {
     // Destructured without `..`: adding a field to the kernel's config is a
     // build error here until the fingerprint covers it.
-    let HomingConfig { direction, fast_speed, slow_speed, backoff, switch_position, timeout_ms } = *c;
+    let HomingConfig { direction, fast_speed, slow_speed, backoff, switch_position, timeout_ms, max_travel } = *c;
     let h = fnv_byte(h, direction as u8);
     let h = fnv_f32(h, fast_speed);
     let h = fnv_f32(h, slow_speed);
     let h = fnv_f32(h, backoff);
     let h = fnv_f32(h, switch_position);
-    fnv_u32(h, timeout_ms)
+    let h = fnv_u32(h, timeout_ms);
+    fnv_f32(h, max_travel)
 }
 
 const fn fnv_joint(h: u64, j: &JointConfig) -> u64 {
@@ -497,8 +510,8 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let ArmConfig {
         tick_hz,
         joints,
-        alpha,
-        beta,
+        observer_position_gain,
+        observer_velocity_gain,
         deadband,
         command_timeout_ms,
         soft_stop_ms,
@@ -510,6 +523,9 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
         homing_budget_ms,
         position_margin,
         encoder_invalid_limit,
+        following_error,
+        following_error_ms,
+        target_jump_tolerance,
     } = *c;
     let h = fnv_u32(FNV_OFFSET, tick_hz);
     let [j1, j2, j3, j4, j5, j6] = joints;
@@ -519,8 +535,8 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let h = fnv_joint(h, &j4);
     let h = fnv_joint(h, &j5);
     let h = fnv_joint(h, &j6);
-    let h = fnv_f32(h, alpha);
-    let h = fnv_f32(h, beta);
+    let h = fnv_f32(h, observer_position_gain);
+    let h = fnv_f32(h, observer_velocity_gain);
     let h = fnv_f32(h, deadband);
     let h = fnv_u32(h, command_timeout_ms);
     let h = fnv_u32(h, soft_stop_ms);
@@ -531,7 +547,10 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let h = fnv_u32(h, boot_timeout_ms);
     let h = fnv_u32(h, homing_budget_ms);
     let h = fnv_f32(h, position_margin);
-    fnv_u32(h, encoder_invalid_limit)
+    let h = fnv_u32(h, encoder_invalid_limit);
+    let h = fnv_f32(h, following_error);
+    let h = fnv_u32(h, following_error_ms);
+    fnv_f32(h, target_jump_tolerance)
 }
 
 #[cfg(test)]
@@ -590,8 +609,12 @@ mod tests {
         assert_eq!(FP, config_fingerprint(&PAROL6.clone()));
         let muts: Vec<ArmMut> = vec![
             Box::new(|c| c.tick_hz += 1),
-            Box::new(|c| c.alpha += 0.001),
-            Box::new(|c| c.beta += 0.0001),
+            Box::new(|c| c.observer_position_gain += 1.0),
+            Box::new(|c| c.observer_velocity_gain += 1.0),
+            Box::new(|c| c.following_error += 0.001),
+            Box::new(|c| c.following_error_ms += 1),
+            Box::new(|c| c.target_jump_tolerance += 0.001),
+            Box::new(|c| c.joints[2].homing.max_travel += 0.01),
             Box::new(|c| c.deadband = 0.001),
             Box::new(|c| c.command_timeout_ms += 1),
             Box::new(|c| c.soft_stop_ms += 1),

@@ -1,14 +1,14 @@
 //! Ambiguity and strictness tests: the cases where a lenient parser would
 //! guess, and the sequence rule's resynchronisation cases.
 
-use kernel::config::PAROL6;
+use kernel::config::PAROL6_VALIDATED;
 use kernel::{Fx, Scalar};
 use protocol::receiver::{Received, Receiver};
 use protocol::seq::{ResyncReason, StaleReason};
 use protocol::{Command, Dialect, DialectLock, ParseError, Parser, ProtocolConfig};
 
 fn parse<S: Scalar>(line: &str) -> Result<Command<S>, ParseError> {
-    Parser::<S>::new(&PAROL6, DialectLock::Auto).parse(line.as_bytes())
+    Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto).parse(line.as_bytes())
 }
 
 fn both(line: &str) -> Result<Command<f32>, ParseError> {
@@ -209,8 +209,8 @@ fn limits_are_checked_per_dialect_layout() {
 fn dialect_lock() {
     let d = frame("1", &["0.000"; 12]);
     let c = frame("1", &["0.0000"; 12]);
-    let only_driver: Parser<f32> = Parser::new(&PAROL6, DialectLock::DriverOnly);
-    let only_conf: Parser<f32> = Parser::new(&PAROL6, DialectLock::ConfiguratorOnly);
+    let only_driver: Parser<f32> = Parser::new(&PAROL6_VALIDATED, DialectLock::DriverOnly);
+    let only_conf: Parser<f32> = Parser::new(&PAROL6_VALIDATED, DialectLock::ConfiguratorOnly);
     assert!(only_driver.parse(d.as_bytes()).is_ok());
     assert_eq!(only_driver.parse(c.as_bytes()), Err(ParseError::DialectLocked { found: Dialect::Configurator }));
     assert!(only_conf.parse(c.as_bytes()).is_ok());
@@ -238,7 +238,7 @@ fn run(rx: &mut Receiver<f32>, line: &str, now: u32) -> Received<f32> {
 
 #[test]
 fn restarted_driver_is_resynchronised() {
-    let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+    let mut rx: Receiver<f32> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
     let z = ["0.000"; 12];
     // an hour at 100 Hz
     assert!(matches!(run(&mut rx, &frame("360000", &z), 0), Received::Accepted { resync: None, .. }));
@@ -274,7 +274,7 @@ fn restarted_driver_is_resynchronised() {
 /// ulp before converting; `Fx(2.1f32)` alone would lie 2 LSB inside 2.1).
 #[test]
 fn frames_exactly_at_the_limits_are_accepted_by_both_variants() {
-    let (k, _) = kernel::KernelFx::new(&PAROL6);
+    let (k, _) = kernel::KernelFx::new(&PAROL6_VALIDATED);
     for (field, text) in [(8, "-2.100"), (8, "2.100"), (4, "1.290"), (4, "-2.000"), (0, "-1.700"), (6, "-2.529")] {
         let mut v = vec!["0.000"; 12];
         v[field] = text;

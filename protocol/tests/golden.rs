@@ -5,15 +5,17 @@
 mod common;
 
 use common::*;
-use kernel::config::PAROL6;
-use kernel::{Event, FaultReason, Fx, HardwareFault, HomingStatus, Reject, RequestKind, Scalar, State, Status};
+use kernel::config::{PAROL6, PAROL6_VALIDATED};
+use kernel::{
+    Event, FaultReason, Fx, HardwareFault, HomingStatus, Reject, RequestKind, Scalar, State, Status, StopCause,
+};
 use protocol::feedback::{configurator_line, driver_line, state_byte};
 use protocol::receiver::{Received, Receiver};
 use protocol::report::{banner_line, config_fingerprint, event_line};
 use protocol::{Command, Dialect, DialectLock, Line, Parser, ProtocolConfig};
 
 fn parser<S: Scalar>() -> Parser<S> {
-    Parser::new(&PAROL6, DialectLock::Auto)
+    Parser::new(&PAROL6_VALIDATED, DialectLock::Auto)
 }
 
 fn motion<S: Scalar>(line: &str) -> (u32, Dialect, [f64; 6], [f64; 6]) {
@@ -222,7 +224,26 @@ fn event_lines() {
     assert_eq!(ev(Event::Fault(FaultReason::Hardware(HardwareFault::Driver { axis: 1 }))), "FAULT HARDWARE DRIVER J2");
     assert_eq!(ev(Event::HomingStarted { mask: 0x3F }), "HOMING_STARTED mask=0x3F");
     assert_eq!(ev(Event::HomingDone { mask: 0x3F }), "HOMING_DONE mask=0x3F");
-    assert_eq!(ev(Event::SoftEstop { since_command_ms: 103 }), "SOFT_ESTOP since_cmd_ms=103");
+    assert_eq!(
+        ev(Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms: 103 } }),
+        "SOFT_ESTOP since_cmd_ms=103"
+    );
+    assert_eq!(ev(Event::SoftEstop { cause: StopCause::LinkLost }), "SOFT_ESTOP LINK_LOST");
+    assert_eq!(ev(Event::Holding), "HOLDING at rest, timeout disarmed");
+    assert_eq!(ev(Event::HomingAfterStop), "HOMING_QUEUED stopping first");
+    assert_eq!(ev(Event::Fault(FaultReason::FollowingError { axis: 0 })), "FAULT FOLLOWING_ERROR J1");
+    assert_eq!(
+        ev(Event::Fault(FaultReason::HomingTravel { axis: 5, phase: kernel::homing::Phase::FastSeek })),
+        "HOMING_FAULT HOMING_TRAVEL J6 phase=FAST_SEEK"
+    );
+    assert_eq!(
+        ev(Event::Rejected { request: RequestKind::Motion, reason: Reject::TargetJump { axis: 1 } }),
+        "REFUSED MOTION TARGET_JUMP J2"
+    );
+    assert_eq!(
+        ev(Event::Rejected { request: RequestKind::Home, reason: Reject::Latched }),
+        "REFUSED HOME LATCHED_ENABLE_FIRST"
+    );
     assert_eq!(ev(Event::Stopped), "STOPPED");
     assert_eq!(ev(Event::Enabled(State::Unhomed)), "ENABLED state=UNHOMED");
     assert_eq!(
@@ -289,12 +310,14 @@ fn only_faults_and_soft_estops_reach_the_fault_log() {
     for s in [State::Boot, State::Unhomed, State::Homing, State::Operational, State::Stopping] {
         assert!(!ev(Event::Enabled(s)).contains("FAULT"));
     }
-    assert!(ev(Event::SoftEstop { since_command_ms: 0 }).contains("SOFT_ESTOP"));
+    assert!(ev(Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms: 0 } }).contains("SOFT_ESTOP"));
+    assert!(ev(Event::SoftEstop { cause: StopCause::LinkLost }).contains("SOFT_ESTOP"));
+    assert!(!ev(Event::Holding).contains("SOFT_ESTOP") && !ev(Event::Holding).contains("FAULT"));
 }
 
 #[test]
 fn rejections_and_drops_are_reported() {
-    let mut rx: Receiver<f32> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+    let mut rx: Receiver<f32> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
     let input = b"<home>\n<5,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000>\n\
 <5,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000>\n\
 <1,0.00,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000>\n\x00\x01\n";

@@ -5,8 +5,8 @@
 mod common;
 
 use common::*;
-use kernel::config::{ArmConfig, PAROL6};
-use kernel::{Fx, HomingStatus, MotionTarget, Scalar, State, Status};
+use kernel::config::{ArmConfig, PAROL6, PAROL6_VALIDATED};
+use kernel::{Fx, HomingStatus, MotionKind, MotionTarget, Scalar, State, Status};
 use proptest::prelude::*;
 use protocol::feedback::{configurator_line, driver_line};
 use protocol::parse::format_motion;
@@ -28,7 +28,7 @@ fn within_limits<S: Scalar>(c: &ArmConfig, t: &MotionTarget<S>) -> bool {
 }
 
 fn feed_all<S: Scalar>(bytes: &[u8]) {
-    let mut rx: Receiver<S> = Receiver::new(&PAROL6, ProtocolConfig::DEFAULT);
+    let mut rx: Receiver<S> = Receiver::new(&PAROL6_VALIDATED, ProtocolConfig::DEFAULT);
     let mut out = Line::new();
     for (i, &b) in bytes.iter().enumerate() {
         if let Some(r) = rx.push(b, i as u32) {
@@ -119,8 +119,8 @@ proptest! {
             None
         };
         for lock in [DialectLock::Auto, DialectLock::DriverOnly, DialectLock::ConfiguratorOnly] {
-            let got = Parser::<f32>::new(&PAROL6, lock).parse(text.as_bytes());
-            let gotx = Parser::<Fx>::new(&PAROL6, lock).parse(text.as_bytes());
+            let got = Parser::<f32>::new(&PAROL6_VALIDATED, lock).parse(text.as_bytes());
+            let gotx = Parser::<Fx>::new(&PAROL6_VALIDATED, lock).parse(text.as_bytes());
             prop_assert_eq!(got.is_ok(), gotx.is_ok(), "{} {:?} {:?}", text, got, gotx);
             match (expect_dialect, got) {
                 (None, Ok(c)) => prop_assert!(false, "accepted {} as {:?}", text, c),
@@ -237,7 +237,7 @@ fn round_trip<S: Scalar>(
     fixed_point: bool,
 ) -> Result<(), TestCaseError> {
     let conv = |x: f64| S::from_f32(x as f32);
-    let mut target = MotionTarget { position: [S::ZERO; 6], velocity: [S::ZERO; 6] };
+    let mut target = MotionTarget { position: [S::ZERO; 6], velocity: [S::ZERO; 6], kind: MotionKind::Stream };
     for j in 0..6 {
         target.position[j] =
             conv(p[j]).clamp_between(S::from_f32(PAROL6.joints[j].limit_min), S::from_f32(PAROL6.joints[j].limit_max));
@@ -245,11 +245,14 @@ fn round_trip<S: Scalar>(
     }
     let mut out = Line::new();
     format_motion(&mut out, seq, dialect, &target).unwrap();
-    let got = Parser::<S>::new(&PAROL6, DialectLock::Auto).parse(out.trim_end().as_bytes());
+    let got = Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto).parse(out.trim_end().as_bytes());
     let half = 0.5 / dialect.scale() as f64 + 1e-6;
     match got {
         Ok(Command::Motion { seq: s, dialect: d, target: t }) => {
             prop_assert_eq!((s, d), (seq, dialect));
+            // A configurator frame with every velocity zero is a go-to.
+            let goto = d == Dialect::Configurator && t.velocity.iter().all(|v| *v == S::ZERO);
+            prop_assert_eq!(t.kind == MotionKind::GoTo, goto);
             for j in 0..6 {
                 let e = (t.position[j].to_f32() as f64 - target.position[j].to_f32() as f64).abs();
                 prop_assert!(e <= half, "{} p{} err {}", out, j, e);

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use firmware::root::HostConfig;
-use kernel::config::ArmConfig;
+use kernel::config::Validated;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 
@@ -38,8 +38,14 @@ pub struct LiveOptions {
 impl LiveOptions {
     /// Defaults: real time, the USB build's main loop (both clients), the
     /// default plant.
-    pub fn new(cfg: &ArmConfig) -> Self {
-        LiveOptions { tcp: None, speed: 1.0, run_for: None, host: HostConfig::USB, plant: PlantOptions::new(cfg) }
+    pub fn new(cfg: &Validated) -> Self {
+        LiveOptions {
+            tcp: None,
+            speed: 1.0,
+            run_for: None,
+            host: HostConfig::USB,
+            plant: PlantOptions::new(cfg.config()),
+        }
     }
 }
 
@@ -127,7 +133,7 @@ impl Outputs {
 }
 
 /// Runs live mode until killed (or `run_for` elapses).
-pub fn run_live(cfg: &ArmConfig, o: &LiveOptions) -> Result<()> {
+pub fn run_live(cfg: &Validated, o: &LiveOptions) -> Result<()> {
     let pty = nix::pty::openpty(None, None).context("opening a pseudo-terminal (openpty)")?;
     let mut t = tcgetattr(&pty.slave).context("reading the pty's terminal settings")?;
     cfmakeraw(&mut t);

@@ -14,7 +14,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use kernel::config::PAROL6;
+use kernel::config::PAROL6_VALIDATED;
 use sim::live::LiveOptions;
 use sim::report::{summary, Report};
 use sim::runner::{run, RunOptions};
@@ -51,7 +51,7 @@ fn real_main() -> Result<ExitCode> {
     let mut out = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../target/sim-report"));
     let mut opts = RunOptions::default();
     let mut with_builtin = false;
-    let mut live = LiveOptions::new(&PAROL6);
+    let mut live = LiveOptions::new(&PAROL6_VALIDATED);
     let mut i = 0;
     while i < args.len() {
         let a = args[i].as_str();
@@ -117,7 +117,7 @@ fn real_main() -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Some("live") => {
-            sim::live::run_live(&PAROL6, &live)?;
+            sim::live::run_live(&PAROL6_VALIDATED, &live)?;
             Ok(ExitCode::SUCCESS)
         }
         Some("run") => {
@@ -150,7 +150,7 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
             }
         };
         let t0 = Instant::now();
-        let mut r = run(&PAROL6, sc, opts, &mut progress);
+        let mut r = run(&PAROL6_VALIDATED, sc, opts, &mut progress);
         r.write(out)?;
         let verdict = if r.failed() {
             "FAIL"

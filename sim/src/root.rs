@@ -18,7 +18,7 @@ use firmware::root::{self, Controller, Host, HostConfig, RootLink, TickRecord};
 use firmware::tx::TxCounters;
 use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::step::StepCommand;
-use kernel::config::{ArmConfig, AXES};
+use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
 use kernel::{KernelF32, MotionTarget, RequestKind, Sense, TickOutput};
 
@@ -155,19 +155,23 @@ impl Root {
     /// A controller on a plant, booted (the firmware's self-test ran for
     /// `SELF_TEST_MS` of simulated time), not yet ticked; an always-open
     /// port that takes every byte.
-    pub fn new(cfg: &ArmConfig, plant: PlantOptions, host: HostConfig) -> Self {
+    pub fn new(cfg: &Validated, plant: PlantOptions, host: HostConfig) -> Self {
         Self::with_port(cfg, plant, host, SimPort::unlimited())
     }
 
     /// As [`Root::new`] on a given port.
-    pub fn with_port(cfg: &ArmConfig, plant: PlantOptions, host: HostConfig, port: SimPort) -> Self {
+    pub fn with_port(cfg: &Validated, plant: PlantOptions, host: HostConfig, port: SimPort) -> Self {
         // The firmware keeps its link in a `static`; the simulator leaks one
         // small link (a few kB) per controller to get the same `'static`
         // halves.
         let link: &'static mut RootLink = Box::leak(Box::new(RootLink::new()));
         let (mut controller, host) = root::new(cfg, link, host);
-        let mut board =
-            SimBoard { plant: Plant::new(cfg, plant), overrun: false, watchdog_feeds: 0, started: Instant::now() };
+        let mut board = SimBoard {
+            plant: Plant::new(cfg.config(), plant),
+            overrun: false,
+            watchdog_feeds: 0,
+            started: Instant::now(),
+        };
         let _ = controller.boot(&mut board, 0, false);
         Root { controller, host, board, port, stats: [DecodeStats::default(); AXES], t_ms: 0, partial: Vec::new() }
     }

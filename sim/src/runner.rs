@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use firmware::root::HostConfig;
-use kernel::config::{ArmConfig, AXES};
+use kernel::config::{Validated, AXES};
 use kernel::{Event, FaultReason, HomingStatus, RequestKind, State};
 use monitor::{Monitor, Sent};
 
@@ -109,6 +109,8 @@ pub fn fault_text(r: &FaultReason) -> String {
         FaultReason::PositionLimit { axis } => format!("position limit J{}", axis + 1),
         FaultReason::Numeric { axis } => format!("numeric J{}", axis + 1),
         FaultReason::HomingTimeout { axis, phase } => format!("homing timeout J{} in {phase:?}", axis + 1),
+        FaultReason::HomingTravel { axis, phase } => format!("homing travel J{} in {phase:?}", axis + 1),
+        FaultReason::FollowingError { axis } => format!("following error J{}", axis + 1),
         FaultReason::Hardware(h) => format!("hardware {h:?}"),
     }
 }
@@ -122,6 +124,8 @@ fn fault_matches(kind: &str, joint: Option<usize>, r: &FaultReason) -> bool {
         FaultReason::PositionLimit { axis } => ("position-limit", Some(axis)),
         FaultReason::Numeric { axis } => ("numeric", Some(axis)),
         FaultReason::HomingTimeout { axis, .. } => ("homing-timeout", Some(axis)),
+        FaultReason::HomingTravel { axis, .. } => ("homing-travel", Some(axis)),
+        FaultReason::FollowingError { axis } => ("following-error", Some(axis)),
         FaultReason::Hardware(_) => ("hardware", None),
     };
     (kind == "any" || kind == k) && joint.is_none_or(|j| axis == Some(j as u8))
@@ -138,8 +142,8 @@ pub struct TickChecker {
 
 impl TickChecker {
     /// A checker for a kernel on `cfg`, created with it.
-    pub fn new(cfg: &ArmConfig) -> Self {
-        TickChecker { monitor: Monitor::new(cfg) }
+    pub fn new(cfg: &Validated) -> Self {
+        TickChecker { monitor: Monitor::new(cfg.config()) }
     }
 
     /// Checks one step (call for every step, in order); returns the
@@ -174,8 +178,8 @@ impl TickChecker {
 }
 
 /// Runs one scenario; `progress` is called with the fraction done.
-pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn FnMut(f64)) -> Report {
-    let mut popts = PlantOptions::new(cfg);
+pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn FnMut(f64)) -> Report {
+    let mut popts = PlantOptions::new(cfg.config());
     if let Some(p) = sc.pose {
         popts.start = p;
     }
@@ -394,7 +398,7 @@ pub fn run(cfg: &ArmConfig, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     for w in trace.windows(2) {
         if w[1].state == State::Operational {
             for (i, a) in accel.iter_mut().enumerate() {
-                let dv = (f64::from(w[1].v[i]) - f64::from(w[0].v[i])).abs() * f64::from(cfg.tick_hz);
+                let dv = (f64::from(w[1].v[i]) - f64::from(w[0].v[i])).abs() * f64::from(cfg.config().tick_hz);
                 *a = a.max(dv);
             }
         }

@@ -7,7 +7,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
 use firmware::root::{Controller, HostConfig};
-use kernel::config::PAROL6;
+use kernel::config::{PAROL6, PAROL6_VALIDATED};
 use sim::client::{configurator_matches, configurator_values, driver_line, driver_view};
 use sim::encoder::Line;
 use sim::plant::PlantOptions;
@@ -20,11 +20,11 @@ use sim::root::{Root, SimPort};
 /// with `Controller::tick`, with no protocol or kernel logic of its own.
 #[test]
 fn firmware_and_simulator_share_the_root() {
-    let root = Root::new(&PAROL6, PlantOptions::new(&PAROL6), HostConfig::USB);
+    let root = Root::new(&PAROL6_VALIDATED, PlantOptions::new(&PAROL6), HostConfig::USB);
     let c: &Controller<'static> = root.controller();
     assert_eq!(c.kernel().state(), kernel::State::Boot);
     let target = include_str!("../../firmware/src/target/mod.rs");
-    assert!(target.contains("root::new(&PAROL6, link, HOST_CFG)"), "the image builds firmware::root");
+    assert!(target.contains("root::new(&PAROL6_VALIDATED, link, HOST_CFG)"), "the image builds firmware::root");
     assert!(target.contains("ctx.controller.tick(&mut ctx.board)"), "the PIT handler runs Controller::tick");
     assert!(target.contains("host.poll(&mut proto, now_ms)"), "the main loop runs Host::poll");
     for logic in ["Receiver", "KernelF32", "FeedbackDivider", "driver_line", "Telemetry", "Debounce", "FrameDecoder"] {
@@ -91,7 +91,7 @@ fn client_seconds() -> u64 {
 #[test]
 fn both_clients_read_one_stream_without_a_race() {
     let pipe = Pipe::new(4096);
-    let mut root = Root::with_port(&PAROL6, PlantOptions::new(&PAROL6), HostConfig::USB, pipe.port());
+    let mut root = Root::with_port(&PAROL6_VALIDATED, PlantOptions::new(&PAROL6), HostConfig::USB, pipe.port());
     let mut rng = Rng::new(7);
     let (mut driver, mut config) = (Lines::default(), Lines::default());
     let mut pending_driver: VecDeque<u8> = VecDeque::new();
@@ -178,7 +178,7 @@ fn both_clients_read_one_stream_without_a_race() {
 #[test]
 fn a_flood_loses_nothing_silently_and_never_a_fault_line() {
     let pipe = Pipe::new(4096);
-    let mut root = Root::with_port(&PAROL6, PlantOptions::new(&PAROL6), HostConfig::USB, pipe.port());
+    let mut root = Root::with_port(&PAROL6_VALIDATED, PlantOptions::new(&PAROL6), HostConfig::USB, pipe.port());
     let mut lines = Lines::default();
     let mut got: Vec<String> = Vec::new();
     let flood = "<ENABLE>\n".repeat(2000);

@@ -1,7 +1,7 @@
 //! Every built-in scenario, run in simulated time through the kernel and
 //! protocol crates, with its report checked.
 
-use kernel::config::{AXES, PAROL6};
+use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use kernel::State;
 use sim::plant::PlantOptions;
 use sim::report::Report;
@@ -11,7 +11,7 @@ use sim::scenario::{builtin, Scenario};
 
 fn run_builtin(name: &str) -> Report {
     let sc = builtin().unwrap().into_iter().find(|s| s.name == name).unwrap_or_else(|| panic!("no scenario {name}"));
-    let r = run(&PAROL6, &sc, &RunOptions::default(), &mut |_| {});
+    let r = run(&PAROL6_VALIDATED, &sc, &RunOptions::default(), &mut |_| {});
     println!("{}", r.text());
     r
 }
@@ -121,7 +121,7 @@ fn runaway_faults_every_axis_in_the_same_tick() {
 #[test]
 fn serial1_host_runs_the_stream_scenario() {
     let sc = builtin().unwrap().into_iter().find(|s| s.name == "driver-trajectory-100hz").unwrap();
-    let r = run(&PAROL6, &sc, &RunOptions { serial1: true }, &mut |_| {});
+    let r = run(&PAROL6_VALIDATED, &sc, &RunOptions { serial1: true }, &mut |_| {});
     assert!(r.decode.contains("Serial1"), "{}", r.decode);
     assert_passes(&r);
 }
@@ -131,8 +131,8 @@ fn serial1_host_runs_the_stream_scenario() {
 /// on the wire.
 #[test]
 fn safety_checker_flags_violations() {
-    let mut root = Root::new(&PAROL6, PlantOptions::new(&PAROL6), firmware::root::HostConfig::USB);
-    let mut checker = TickChecker::new(&PAROL6);
+    let mut root = Root::new(&PAROL6_VALIDATED, PlantOptions::new(&PAROL6), firmware::root::HostConfig::USB);
+    let mut checker = TickChecker::new(&PAROL6_VALIDATED);
     let mut step = root.step(b"");
     assert!(checker.check(&step).is_empty());
     for _ in 0..10 {

@@ -2,7 +2,7 @@
 //! counts: the recorded scenario's ticks (parse + tick), per variant.
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use emu_common::{Bits, Reader};
-use kernel::config::PAROL6;
+use kernel::config::{PAROL6, PAROL6_VALIDATED};
 use kernel::{Fx, Kernel, Sense};
 use protocol::{DialectLock, Parser};
 
@@ -16,8 +16,8 @@ fn inputs(data: &[u8]) -> Vec<(Sense, Option<Vec<u8>>)> {
 }
 
 fn run<S: Bits>(inp: &[(Sense, Option<Vec<u8>>)]) -> u32 {
-    let (mut k, authority) = Kernel::<S>::new(&PAROL6);
-    let parser = Parser::<S>::new(&PAROL6, DialectLock::Auto);
+    let (mut k, authority) = Kernel::<S>::new(&PAROL6_VALIDATED);
+    let parser = Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto);
     let mut acc = 0u32;
     for (sense, frame) in inp {
         let req = frame.as_deref().and_then(|f| parser.parse(black_box(f)).ok()).map(|c| c.into_request(&authority));

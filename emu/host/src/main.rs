@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use emu_common::{encode_tick, header, replay, Bits, Hooks, Reader};
-use kernel::config::{ArmConfig, Direction, AXES, PAROL6};
+use kernel::config::{ArmConfig, Direction, AXES, PAROL6, PAROL6_VALIDATED};
 use kernel::homing::Phase;
 use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Sense, State};
 use protocol::{DialectLock, Parser};
@@ -54,7 +54,7 @@ impl Plant {
                 limits |= 1 << i;
             }
         }
-        Sense { encoders, limits, hardware_fault: None }
+        Sense { encoders, limits, hardware_fault: None, link_lost: false }
     }
     fn apply(&mut self, step_rate: &[i32; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
@@ -242,8 +242,8 @@ fn frames(data: &[u8]) -> Result<Vec<(usize, bool)>, String> {
 /// frame whether the parser accepted it as a motion frame.
 fn classify<S: Bits>(data: &[u8]) -> Result<(Vec<State>, Vec<bool>), String> {
     let mut rd = Reader::new(data).map_err(|e| format!("{e:?}"))?;
-    let (mut k, authority) = Kernel::<S>::new(&PAROL6);
-    let parser = Parser::<S>::new(&PAROL6, DialectLock::Auto);
+    let (mut k, authority) = Kernel::<S>::new(&PAROL6_VALIDATED);
+    let parser = Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto);
     let (mut states, mut motion_ok) = (Vec::new(), Vec::new());
     while let Some(t) = rd.next_tick().map_err(|e| format!("{e:?}"))? {
         let req = t.frame.and_then(|f| {

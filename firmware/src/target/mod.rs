@@ -42,7 +42,7 @@ use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
 use firmware::board::TickBoard;
 use firmware::root::{self, BootReport, Controller, Host, HostConfig, RootLink};
-use kernel::config::{AXES, PAROL6};
+use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use protocol::report::config_fingerprint;
 
 #[cfg(feature = "tmc5160-selftest")]
@@ -277,7 +277,7 @@ fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static 
     // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
     // two ends go to the tick (controller) and the main loop (host).
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
-    let (mut controller, host) = root::new(&PAROL6, link, HOST_CFG);
+    let (mut controller, host) = root::new(&PAROL6_VALIDATED, link, HOST_CFG);
     // Boot self-test: the encoders and limit inputs are sampled for
     // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
     // readings initialise the observers at the real angles (nothing moves).

@@ -28,6 +28,11 @@ pub(crate) struct Axis<S: Scalar> {
     pub needs_reinit: bool,
     /// Consecutive invalid or implausible samples (the observer coasts).
     pub invalid: u32,
+    /// The commanded path (rad): the set-point in Operational, the integral
+    /// of the applied commands in Stopping and Homing.
+    pub path: S,
+    /// Consecutive ticks with a following error.
+    pub fe_count: u32,
 }
 
 impl<S: Scalar> Axis<S> {
@@ -41,6 +46,28 @@ impl<S: Scalar> Axis<S> {
             homing: AxisHoming::default(),
             needs_reinit: false,
             invalid: 0,
+            path: S::ZERO,
+            fe_count: 0,
+        }
+    }
+    /// Holds the measured position: set-point and commanded path at the
+    /// estimate, no following-error history.
+    pub(super) fn resync(&mut self) {
+        self.interp = Interpolator::hold(self.obs.x);
+        self.path = self.obs.x;
+        self.fe_count = 0;
+    }
+    /// Following error against the commanded path: farther than `fe`, or
+    /// more than half of it behind while moving away from the path, for
+    /// more than `fe_ticks` ticks is a fault.
+    fn following(&mut self, axis: u8, k: &Params<S>, fault: &mut Option<FaultReason>) {
+        let e = self.path.minus(self.obs.x);
+        let v = self.obs.v;
+        let away = (e > k.fe_half && v < k.fe_min_speed.neg()) || (e < k.fe_half.neg() && v > k.fe_min_speed);
+        let bad = e.abs() > k.fe || away;
+        self.fe_count = if bad { self.fe_count.saturating_add(1) } else { 0 };
+        if self.fe_count > k.fe_ticks {
+            fault.get_or_insert(FaultReason::FollowingError { axis });
         }
     }
     /// The measured joint angle from the unwrapped count.
@@ -54,7 +81,7 @@ impl<S: Scalar> Axis<S> {
         self.needs_reinit = false;
         self.invalid = 0;
         self.obs = AlphaBeta::at(self.measured(p));
-        self.interp = Interpolator::hold(self.obs.x);
+        self.resync();
     }
 
     /// Sense and estimate for this axis (index `axis`): start from the first
@@ -117,8 +144,8 @@ impl<S: Scalar> Axis<S> {
     /// Control for this axis in Operational: interpolate, control law,
     /// saturate, then limit the change from `prev` (last tick's output).
     fn follow(&mut self, axis: u8, p: &AxisParams<S>, prev: S, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
-        let (sp, moved) = self.interp.advance();
-        let ff = moved.times_int(k.tick_hz);
+        let (sp, ff) = self.interp.advance(&p.profile);
+        self.path = sp;
         let (v, ok) = control_law(sp, ff, self.obs.x, p.kp, p.vmax, k.deadband);
         if !ok {
             fault.get_or_insert(FaultReason::Numeric { axis });
@@ -135,6 +162,21 @@ impl<S: Scalar> Kernel<S> {
         let k = &self.p;
         for (i, ((ax, p), sample)) in self.axes.iter_mut().zip(k.axes.iter()).zip(sense.encoders.iter()).enumerate() {
             ax.sense_and_estimate(i as u8, *sample, p, k, fault);
+        }
+    }
+
+    /// Following error of every axis in a moving mode. In Stopping and
+    /// Homing the commanded path first advances by last tick's output
+    /// (Operational set it to the set-point in `follow`).
+    pub(super) fn following(&mut self, integrate: bool, fault: &mut Option<FaultReason>) {
+        let k = &self.p;
+        for (i, (ax, prev)) in self.axes.iter_mut().zip(self.last_out.iter()).enumerate() {
+            if integrate {
+                ax.path = ax.path.plus(prev.times(k.gains.dt));
+            }
+            if ax.ready && !ax.needs_reinit {
+                ax.following(i as u8, k, fault);
+            }
         }
     }
 

@@ -25,12 +25,27 @@ impl<S: Scalar> Kernel<S> {
         needs
     }
 
-    /// Starts a homing run of the joints in `mask`, from Unhomed,
-    /// Operational or SoftEstop; refused in every other state.
+    /// A host's request to home the joints in `mask`: from Unhomed or an
+    /// Operational arm at rest it starts at once; from a moving arm a
+    /// controlled stop (the soft-stop ramp) comes first and homing starts
+    /// when it ends; refused in every other state (a latch needs
+    /// `<ENABLE>`).
     pub(super) fn start_homing(&mut self, mask: u8) -> Result<(), Reject> {
         if let Some(r) = self.homing_refusal() {
             return Err(r);
         }
+        if self.state() == State::Operational && self.moving() {
+            self.transition(Edge::StopToHome(mask));
+            self.armed = false;
+            self.since_cmd = 0;
+            return Ok(());
+        }
+        self.begin_homing(mask);
+        Ok(())
+    }
+
+    /// Starts the run (the mode allows it: checked by the caller).
+    pub(super) fn begin_homing(&mut self, mask: u8) {
         self.homed &= !mask;
         for (i, ax) in self.axes.iter_mut().enumerate() {
             ax.homing.reset(mask & bit(i) != 0);
@@ -42,7 +57,6 @@ impl<S: Scalar> Kernel<S> {
         self.homing_status = HomingStatus::InProgress;
         self.armed = false;
         self.since_cmd = 0;
-        Ok(())
     }
 
     /// Homing: sequence the groups, step the active axes.
@@ -70,17 +84,23 @@ impl<S: Scalar> Kernel<S> {
             if group & bit(i) == 0 {
                 continue;
             }
-            ax.homing.start();
+            ax.homing.start(ax.obs.x);
             let s = ax.homing.step(limits & bit(i) != 0, ax.obs.x, &p.homing);
             if let Some(phase) = s.timed_out {
                 fault.get_or_insert(FaultReason::HomingTimeout { axis: i as u8, phase });
+            }
+            if let Some(phase) = s.too_far {
+                fault.get_or_insert(FaultReason::HomingTravel { axis: i as u8, phase });
             }
             if s.capture_zero {
                 // Zero from the real reading plus the configured offset; the
                 // estimate moves with it, so the residual is unchanged.
                 let raw = S::from_counts(ax.unwrap.total().saturating_mul(p.enc_sign), p.k_count);
                 let zero = p.switch_position.minus(raw);
-                ax.obs.shift(zero.minus(ax.zero));
+                let d = zero.minus(ax.zero);
+                ax.obs.shift(d);
+                ax.path = ax.path.plus(d);
+                ax.homing.shift(d);
                 ax.zero = zero;
                 self.homed |= bit(i);
             }

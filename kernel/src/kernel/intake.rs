@@ -12,7 +12,8 @@ use super::{bit, Kernel, ALL};
 use crate::config::AXES;
 use crate::scalar::Scalar;
 use crate::types::{
-    EncoderSample, Event, Events, FaultReason, HomingStatus, MotionTarget, Reject, Request, RequestKind, Sense, State,
+    EncoderSample, Event, Events, FaultReason, HomingStatus, MotionKind, MotionTarget, Reject, Request, RequestKind,
+    Sense, State,
 };
 
 /// Median of four values (mean of the middle two), with a fixed network of
@@ -51,6 +52,9 @@ impl<S: Scalar> Kernel<S> {
     fn request_event(&self, kind: RequestKind) -> Option<Event> {
         match kind {
             RequestKind::Home if self.home_queued => Some(Event::HomingQueued),
+            RequestKind::Home | RequestKind::HomeJoint(_) if self.state() == State::Stopping => {
+                Some(Event::HomingAfterStop)
+            }
             RequestKind::Home | RequestKind::HomeJoint(_) => Some(Event::HomingStarted { mask: self.run_mask }),
             RequestKind::Enable => Some(Event::Enabled(self.state())),
             RequestKind::Motion => None,
@@ -93,24 +97,49 @@ impl<S: Scalar> Kernel<S> {
             return Err(r);
         }
         self.validate(t)?;
-        // Segment length: median of recent target intervals, bounded.
-        let n = match self.since_target {
-            None => self.p.seg_max,
-            Some(gap) => {
-                // max/min rather than `clamp`, which panics if min > max: the
-                // tick must have no panic path even for a bad configuration.
+        if t.kind == MotionKind::Stream {
+            // Stream continuity: a sample must be within one segment's
+            // travel of the set-point or of the previous target.
+            for (i, ((ax, p), target)) in self.axes.iter().zip(self.p.axes.iter()).zip(t.position.iter()).enumerate() {
+                let from_sp = target.minus(ax.interp.setpoint()).abs();
+                let from_last = target.minus(ax.interp.target()).abs();
+                if from_sp.min(from_last) > p.max_jump_rad {
+                    return Err(Reject::TargetJump { axis: i as u8 });
+                }
+            }
+        }
+        let n = match (t.kind, self.since_target) {
+            (MotionKind::GoTo, _) => 0,
+            (MotionKind::Stream, None) => self.p.seg_max,
+            (MotionKind::Stream, Some(gap)) => {
+                // Segment length: median of recent target intervals,
+                // bounded. max/min rather than `clamp`, which panics if
+                // min > max: the tick must have no panic path even for a
+                // bad configuration.
                 let gap = gap.max(self.p.seg_min).min(self.p.seg_max);
                 let [_, a, b, c] = self.intervals;
                 self.intervals = if self.intervals == [0; 4] { [gap; 4] } else { [a, b, c, gap] };
                 median4(self.intervals)
             }
         };
-        self.since_target = Some(0);
-        let inv_n = self.p.recip.get(n as usize).copied().unwrap_or(S::ZERO);
+        let n = i32::try_from(n).map_err(|_| Reject::Internal)?;
+        let hz = self.p.tick_hz;
         for ((ax, p), target) in self.axes.iter_mut().zip(self.p.axes.iter()).zip(t.position.iter()) {
-            ax.interp.retarget(*target, inv_n, p.max_step);
+            // Go-to: the speed limit; stream: the distance over the typical
+            // interval (the profile bounds it to the speed limit).
+            let speed = S::select(n == 0, p.vmax, target.minus(ax.interp.setpoint()).abs().times_int(hz).div_int(n));
+            ax.interp.retarget(*target, speed);
         }
-        self.armed = true;
+        if t.kind == MotionKind::Stream {
+            self.since_target = Some(0);
+            self.armed = true;
+        } else {
+            // A go-to completes without further commands: no timeout, and
+            // the next stream starts a fresh interval history.
+            self.since_target = None;
+            self.intervals = [0; 4];
+            self.armed = false;
+        }
         self.since_cmd = 0;
         Ok(())
     }

@@ -3,8 +3,11 @@
 //! [`AxisParams`]), and the motion-target limits shared with the protocol
 //! parser ([`TargetLimits`]). Nothing here changes after `Kernel::new`.
 
-use crate::config::{ms_to_ticks, ArmConfig, JointConfig, AXES, MAX_SEGMENT_TICKS, POSITION_ABS_MAX};
+use crate::config::{
+    ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOMING_SETTLE_MS, MAX_SEGMENT_TICKS, POSITION_ABS_MAX,
+};
 use crate::homing::HomingParams;
+use crate::interp::{profile, Profile};
 use crate::observer::ObserverGains;
 use crate::scalar::Scalar;
 use crate::types::{MotionTarget, Reject};
@@ -29,7 +32,8 @@ pub struct TargetLimits<S> {
 
 impl<S: Scalar> TargetLimits<S> {
     /// The limits of `config`'s joints.
-    pub fn new(config: &ArmConfig) -> Self {
+    pub fn new(config: &Validated) -> Self {
+        let config = config.config();
         TargetLimits {
             lo: config.joints.map(|j| S::from_f32(j.limit_min.next_down())),
             hi: config.joints.map(|j| S::from_f32(j.limit_max.next_up())),
@@ -59,7 +63,6 @@ impl<S: Scalar> TargetLimits<S> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct AxisParams<S: Scalar> {
     pub vmax: S,
-    pub max_step: S,
     pub runaway: S,
     pub kp: S,
     /// Largest velocity change per tick in Operational.
@@ -72,15 +75,22 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub max_jump: i32,
     pub switch_position: S,
     pub homing: HomingParams<S>,
+    /// The set-point profile (acceleration and speed limits).
+    pub profile: Profile<S>,
+    /// Largest distance of a stream sample from the set-point (rad): one
+    /// longest segment at the speed limit, the braking distance from it (the
+    /// set-point lags a full-speed stream by that much), and the tolerance.
+    pub max_jump_rad: S,
 }
 
 impl<S: Scalar> AxisParams<S> {
     fn new(j: &JointConfig, c: &ArmConfig) -> Self {
+        // `c` passed `config::check` (the only way to a `Validated`).
         let dir = j.homing.direction.sign();
         let motor = if j.motor_reversed { -1.0 } else { 1.0 };
+        let seg_s = ms_to_ticks(c.segment_max_ms, c.tick_hz) as f32 / c.tick_hz as f32;
         AxisParams {
             vmax: S::from_f32(j.max_velocity),
-            max_step: S::from_f32(j.max_velocity / c.tick_hz as f32),
             runaway: S::from_f32(j.runaway_velocity),
             kp: S::from_f32(j.kp),
             accel_step: S::from_f32(j.max_acceleration / c.tick_hz as f32),
@@ -96,7 +106,15 @@ impl<S: Scalar> AxisParams<S> {
                 slow_toward: S::from_f32(j.homing.slow_speed * dir),
                 backoff: S::from_f32(j.homing.backoff),
                 timeout_ticks: ms_to_ticks(j.homing.timeout_ms, c.tick_hz),
+                dv: S::from_f32(j.max_acceleration / c.tick_hz as f32),
+                max_travel: S::from_f32(j.homing.max_travel),
+                phase_travel: S::from_f32(j.homing_phase_travel()),
+                settle_ticks: ms_to_ticks(HOMING_SETTLE_MS, c.tick_hz),
             },
+            profile: profile(j.max_velocity, j.max_acceleration, c.tick_hz),
+            max_jump_rad: S::from_f32(
+                j.max_velocity * seg_s + j.braking_distance(j.max_velocity) + c.target_jump_tolerance,
+            ),
         }
     }
 }
@@ -114,23 +132,28 @@ pub(crate) struct Params<S: Scalar> {
     pub inv_stop: S,
     pub seg_min: u32,
     pub seg_max: u32,
-    /// `recip[n] = 1/n` (index 0 unused).
-    pub recip: [S; MAX_SEGMENT_TICKS as usize + 1],
     pub boot_ticks: u32,
+    /// Following-error bound (rad), half of it, and its time (ticks).
+    pub fe: S,
+    pub fe_half: S,
+    pub fe_ticks: u32,
+    /// Estimated speeds below this are no direction (rad/s).
+    pub fe_min_speed: S,
     pub invalid_limit: u32,
     pub pos_abs: S,
     pub vel_abs: S,
 }
 
 impl<S: Scalar> Params<S> {
-    pub(crate) fn new(c: &ArmConfig) -> Self {
+    pub(crate) fn new(v: &Validated) -> Self {
+        let c: &ArmConfig = v.config();
         let stop_ticks = ms_to_ticks(c.soft_stop_ms, c.tick_hz).max(1);
         Params {
             axes: c.joints.map(|j| AxisParams::new(&j, c)),
-            limits: TargetLimits::new(c),
+            limits: TargetLimits::new(v),
             gains: ObserverGains {
-                alpha: S::from_f32(c.alpha),
-                beta_hz: S::from_f32(c.beta * c.tick_hz as f32),
+                alpha: S::from_f32(c.alpha()),
+                beta_hz: S::from_f32(c.beta() * c.tick_hz as f32),
                 dt: S::from_f32(1.0 / c.tick_hz as f32),
             },
             tick_hz: i32::try_from(c.tick_hz).unwrap_or(1000),
@@ -140,7 +163,10 @@ impl<S: Scalar> Params<S> {
             inv_stop: S::from_f32(1.0 / stop_ticks as f32),
             seg_min: ms_to_ticks(c.segment_min_ms, c.tick_hz).max(1),
             seg_max: ms_to_ticks(c.segment_max_ms, c.tick_hz).max(1).min(MAX_SEGMENT_TICKS),
-            recip: core::array::from_fn(|n| if n == 0 { S::ZERO } else { S::from_f32(1.0 / n as f32) }),
+            fe: S::from_f32(c.following_error),
+            fe_half: S::from_f32(c.following_error * 0.5),
+            fe_ticks: ms_to_ticks(c.following_error_ms, c.tick_hz),
+            fe_min_speed: S::from_f32(0.05),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
             invalid_limit: c.encoder_invalid_limit,
             pos_abs: S::from_f32(POSITION_ABS_MAX),

@@ -10,9 +10,11 @@
 //! | edge | from | to | caller |
 //! |---|---|---|---|
 //! | `Ready` | Boot | Unhomed | [`Kernel::boot`]: every encoder read once |
-//! | `Timeout` | Operational | Stopping (k = 0, from the last outputs) | [`Kernel::supervise`]: command timeout |
+//! | `Timeout` | Operational | Stopping (k = 0, from the last outputs) | [`Kernel::supervise`]: command timeout while moving |
+//! | `LinkLost` | Operational, Homing, Stopping | Stopping (a homing run fails; a pending home is dropped) | [`Kernel::link_lost`] |
+//! | `StopToHome` | Operational | Stopping, then homing | `start_homing` while the arm moves |
 //! | `RampTick` | Stopping | Stopping (k + 1), or SoftEstop at k = N | [`Kernel::supervise`]: each ramp tick |
-//! | `StartHoming` | Unhomed, Operational, SoftEstop | Homing | `start_homing` (homing sequencer) |
+//! | `StartHoming` | Unhomed, Operational, Stopping at k = N with a pending home | Homing | homing sequencer |
 //! | `HomingDone` | Homing | Operational if every joint is homed, else Unhomed | `finish_homing` (homing sequencer) |
 //! | `Enable` | Fault, SoftEstop | Operational if every joint is homed, else Unhomed | `enable` (command intake) |
 //! | `Fault` | any but Fault | Fault | [`Kernel::enter_fault`] |
@@ -20,7 +22,7 @@
 use super::{bit, Kernel, ALL};
 use crate::config::{AXES, COUNTS_PER_REV};
 use crate::scalar::Scalar;
-use crate::types::{EncoderSample, Event, Events, Fault, FaultReason, HomingStatus, Reject, Sense, State};
+use crate::types::{EncoderSample, Event, Events, Fault, FaultReason, HomingStatus, Reject, Sense, State, StopCause};
 
 /// The supervisor's mode: [`State`] plus the soft-stop ramp's progress.
 #[derive(Clone, Copy, Debug, PartialEq, Hash)]
@@ -29,7 +31,13 @@ pub(super) enum Mode<S> {
     Unhomed,
     Homing,
     Operational,
-    Stopping { k: u32, v0: [S; AXES] },
+    /// The soft-stop ramp at tick `k` from outputs `v0`; `then_home`: the
+    /// joints to home when it ends (0: latch SoftEstop).
+    Stopping {
+        k: u32,
+        v0: [S; AXES],
+        then_home: u8,
+    },
     SoftEstop,
     Fault,
 }
@@ -42,9 +50,14 @@ pub(super) enum Edge {
     Ready,
     /// Operational -> Stopping.
     Timeout,
+    /// Operational, Homing, Stopping -> Stopping (latching).
+    LinkLost,
+    /// Operational -> Stopping, then homing of the joints in the mask.
+    StopToHome(u8),
     /// Stopping -> Stopping (one more ramp tick) or SoftEstop.
     RampTick,
-    /// Unhomed, Operational, SoftEstop -> Homing.
+    /// Unhomed, Operational, or the end of a ramp with a pending home ->
+    /// Homing.
     StartHoming,
     /// Homing -> Operational or Unhomed.
     HomingDone,
@@ -75,16 +88,24 @@ impl<S: Scalar> Kernel<S> {
     pub(super) fn transition(&mut self, edge: Edge) -> State {
         let next = match (edge, self.mode) {
             (Edge::Ready, Mode::Boot) => Mode::Unhomed,
-            (Edge::Timeout, Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out },
-            (Edge::RampTick, Mode::Stopping { k, v0 }) => {
+            (Edge::Timeout, Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out, then_home: 0 },
+            (Edge::LinkLost, Mode::Operational | Mode::Homing) => {
+                Mode::Stopping { k: 0, v0: self.last_out, then_home: 0 }
+            }
+            (Edge::LinkLost, Mode::Stopping { k, v0, .. }) => Mode::Stopping { k, v0, then_home: 0 },
+            (Edge::StopToHome(mask), Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out, then_home: mask },
+            (Edge::RampTick, Mode::Stopping { k, v0, then_home }) => {
                 let k = k.saturating_add(1);
-                if k >= self.p.stop_ticks {
+                if k >= self.p.stop_ticks && then_home == 0 {
                     Mode::SoftEstop
                 } else {
-                    Mode::Stopping { k, v0 }
+                    Mode::Stopping { k: k.min(self.p.stop_ticks), v0, then_home }
                 }
             }
-            (Edge::StartHoming, Mode::Unhomed | Mode::Operational | Mode::SoftEstop) => Mode::Homing,
+            (Edge::StartHoming, Mode::Unhomed | Mode::Operational) => Mode::Homing,
+            (Edge::StartHoming, Mode::Stopping { k, then_home, .. }) if then_home != 0 && k >= self.p.stop_ticks => {
+                Mode::Homing
+            }
             (Edge::HomingDone, Mode::Homing) | (Edge::Enable, Mode::Fault | Mode::SoftEstop) => {
                 if self.homed == ALL {
                     Mode::Operational
@@ -111,15 +132,48 @@ impl<S: Scalar> Kernel<S> {
         }
     }
 
-    /// Why homing cannot start in the current state (`Edge::StartHoming`).
+    /// Why a host's homing request cannot start in the current state
+    /// (`Edge::StartHoming`, or `Edge::StopToHome` while moving). Only
+    /// `<ENABLE>` clears a latch: homing from SoftEstop or Fault is refused.
     pub(super) fn homing_refusal(&self) -> Option<Reject> {
         match self.mode {
             Mode::Boot => Some(Reject::Booting),
             Mode::Homing => Some(Reject::Homing),
             Mode::Stopping { .. } => Some(Reject::Stopping),
-            Mode::Fault => Some(Reject::Latched),
-            Mode::Unhomed | Mode::Operational | Mode::SoftEstop => None,
+            Mode::SoftEstop | Mode::Fault => Some(Reject::Latched),
+            Mode::Unhomed | Mode::Operational => None,
         }
+    }
+
+    /// The host link is gone: a moving arm soft-stops at once (latching); a
+    /// homing run fails (H3) and stops; a pending home after a stop is
+    /// dropped. An arm at rest holds.
+    pub(super) fn link_lost(&mut self, events: &mut Events) {
+        let stop = match self.mode {
+            Mode::Operational => self.moving(),
+            Mode::Homing => {
+                self.abort_homing_run();
+                true
+            }
+            Mode::Stopping { then_home, .. } => then_home != 0,
+            _ => false,
+        };
+        if stop {
+            self.transition(Edge::LinkLost);
+            self.armed = false;
+            events.push(Event::SoftEstop { cause: StopCause::LinkLost });
+        }
+    }
+
+    /// A homing run ends without finishing: its joints are not homed, H3.
+    pub(super) fn abort_homing_run(&mut self) {
+        self.home_queued = false;
+        self.homing_status = HomingStatus::Failed;
+        self.homed &= !self.run_mask;
+        for ax in self.axes.iter_mut() {
+            ax.homing.reset(false);
+        }
+        self.run_mask = 0;
     }
 
     /// Why an enable has nothing to do in the current state (`Edge::Enable`
@@ -168,26 +222,45 @@ impl<S: Scalar> Kernel<S> {
                 if self.armed {
                     self.since_cmd = self.since_cmd.saturating_add(1);
                 }
-                if self.armed && self.since_cmd > self.p.timeout_ticks {
+                if self.armed && self.since_cmd > self.p.timeout_ticks && self.moving() {
+                    // Interrupted motion: ramp down and latch.
                     self.transition(Edge::Timeout);
                     let ms =
                         self.since_cmd.saturating_mul(1000).checked_div(self.p.tick_hz.unsigned_abs()).unwrap_or(0);
-                    events.push(Event::SoftEstop { since_command_ms: ms });
+                    events.push(Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms: ms } });
                 } else {
+                    if self.armed && self.since_cmd > self.p.timeout_ticks {
+                        // At rest at the final target: hold, latch nothing.
+                        self.armed = false;
+                        self.since_cmd = 0;
+                        events.push(Event::Holding);
+                    }
                     self.follow(&mut out, fault);
                 }
             }
             Mode::Homing => homing_event = self.home_step(limits, &mut out, fault),
             _ => {}
         }
-        if let Mode::Stopping { k, v0 } = self.mode {
+        if let Mode::Stopping { k, v0, then_home } = self.mode {
             self.ramp(k.saturating_add(1), &v0, &mut out);
-            if self.transition(Edge::RampTick) == State::SoftEstop {
+            if then_home != 0 && k.saturating_add(1) >= self.p.stop_ticks {
+                // The stop before a requested homing is complete.
+                self.transition(Edge::RampTick);
+                self.begin_homing(then_home);
+                events.push(Event::HomingStarted { mask: then_home });
+            } else if self.transition(Edge::RampTick) == State::SoftEstop {
                 events.push(Event::Stopped);
             }
         }
         if let Some(e) = homing_event {
             events.push(e);
+        }
+        // Following error in every moving mode (the commanded path is the
+        // set-point in Operational, the integral of the commands otherwise).
+        match self.mode {
+            Mode::Operational => self.following(false, fault),
+            Mode::Homing | Mode::Stopping { .. } => self.following(true, fault),
+            _ => {}
         }
         self.check(limits, &out, fault);
         out
@@ -248,14 +321,8 @@ impl<S: Scalar> Kernel<S> {
 
     fn enter_fault(&mut self, reason: FaultReason) {
         if self.mode == Mode::Homing || self.home_queued {
-            self.home_queued = false;
-            self.homing_status = HomingStatus::Failed;
             // Axes of the aborted run are not homed.
-            self.homed &= !self.run_mask;
-            for ax in self.axes.iter_mut() {
-                ax.homing.reset(false);
-            }
-            self.run_mask = 0;
+            self.abort_homing_run();
         }
         for (i, ax) in self.axes.iter().enumerate() {
             if ax.needs_reinit {

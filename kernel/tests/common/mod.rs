@@ -2,7 +2,7 @@
 //! with the one safety monitor (`monitor::Monitor`) asserted at every tick.
 #![allow(dead_code, clippy::needless_range_loop)] // six axes: indices read best
 
-use kernel::config::{AXES, PAROL6};
+use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use kernel::{Authority, Event, Kernel, MotionTarget, Request, Scalar, Sense, State, TickOutput};
 use monitor::plant::Witness;
 pub use monitor::plant::{EncoderFault, Plant};
@@ -21,12 +21,16 @@ pub struct Rig<S: Scalar> {
 }
 
 pub fn target<S: Scalar>(p: [f64; AXES]) -> MotionTarget<S> {
-    MotionTarget { position: p.map(|x| S::from_f32(x as f32)), velocity: [S::ZERO; AXES] }
+    MotionTarget {
+        position: p.map(|x| S::from_f32(x as f32)),
+        velocity: [S::ZERO; AXES],
+        kind: kernel::MotionKind::Stream,
+    }
 }
 
 impl<S: Scalar> Rig<S> {
     pub fn new(q: [f64; AXES]) -> Self {
-        let (k, auth) = Kernel::new(&PAROL6);
+        let (k, auth) = Kernel::new(&PAROL6_VALIDATED);
         Rig {
             k,
             auth,

@@ -141,22 +141,24 @@ fn main() {
         ));
     }
 
-    // SR-18: one interpolator step toward every target, each distinct speed.
-    for ((vmax, _), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, 0.0)) {
-        let max_step = Fx::from_f32(vmax / PAROL6.tick_hz as f32);
-        let inv10 = Fx::from_f32(0.1);
+    // SR-18/SR-27: the first set-point step from rest toward every target,
+    // for each distinct (speed, acceleration). A slice: the state (set-point,
+    // velocity) is fixed at rest at 0 and the cruising speed at vmax.
+    for ((vmax, amax), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, PAROL6.joints[j].max_acceleration)) {
+        let k = kernel::interp::profile::<Fx>(vmax, amax, PAROL6.tick_hz);
+        let dv = k.dv;
         results.push(sweep(
             "SR-18",
-            format!("interpolator I8F24 first step, every target, vmax {vmax} (J{joints:?})"),
+            format!("set-point I8F24, first step from rest at 0 toward every target (slice), vmax {vmax} amax {amax} (J{joints:?})"),
             full,
             || {
                 all_u32(|b| {
                     let target = Fx::from_bits(b as i32);
                     let mut it = Interpolator::hold(Fx::ZERO);
-                    it.retarget(target, inv10, max_step);
-                    let (sp, moved) = it.advance();
+                    it.retarget(target, k.vmax);
+                    let (sp, v) = it.advance(&k);
                     let (lo, hi) = (Ord::min(target, Fx::ZERO), Ord::max(target, Fx::ZERO));
-                    sp >= lo && sp <= hi && Scalar::abs(moved) <= max_step && sp == moved
+                    sp >= lo && sp <= hi && Scalar::abs(v) <= dv.plus(k.eps.times_int(2000)) && (v >= Fx::ZERO) == (target >= Fx::ZERO) || (v == Fx::ZERO && sp == Fx::ZERO)
                 })
                 .map(|b| format!("target bits {b:#010x}"))
             },
@@ -165,8 +167,8 @@ fn main() {
 
     // Observer: the corrected estimate lies between prediction and measurement.
     let g = ObserverGains {
-        alpha: Fx::from_f32(PAROL6.alpha),
-        beta_hz: Fx::from_f32(PAROL6.beta * PAROL6.tick_hz as f32),
+        alpha: Fx::from_f32(PAROL6.alpha()),
+        beta_hz: Fx::from_f32(PAROL6.beta() * PAROL6.tick_hz as f32),
         dt: Fx::from_f32(1.0 / PAROL6.tick_hz as f32),
     };
     results.push(sweep("SR-3", "observer I8F24 step from rest, every measurement".into(), full, || {

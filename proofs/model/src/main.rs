@@ -147,11 +147,12 @@ impl Supervisor {
                 }
             }
         }
-        Sense { encoders: enc, limits, hardware_fault }
+        Sense { encoders: enc, limits, hardware_fault, link_lost: false }
     }
 
     fn request(&self, r: Req) -> Request<Fx> {
-        let t = |p: [Fx; AXES]| MotionTarget { position: p, velocity: [Fx::ZERO; AXES] };
+        let t =
+            |p: [Fx; AXES]| MotionTarget { position: p, velocity: [Fx::ZERO; AXES], kind: kernel::MotionKind::Stream };
         match r {
             Req::Home => Request::Home,
             Req::HomeJoint(j) => Request::HomeJoint(j),
@@ -306,7 +307,7 @@ fn main() {
         let j = &MODEL_CONFIG.joints[i];
         *h = h.clamp_between(Fx::from_f32(j.limit_min + 0.01), Fx::from_f32(j.limit_max - 0.01));
     }
-    let (init, authority) = Kernel::<Fx>::new(&MODEL_CONFIG);
+    let (init, authority) = Kernel::<Fx>::new(&kernel::config::Validated::relaxed(MODEL_CONFIG));
     let model = Supervisor { init, authority, here };
     let started = std::time::Instant::now();
     // A cap on generated states (stateright counts every generated state, not

@@ -4,7 +4,7 @@
 //! limits, or a report line that is not clean printable text.
 #![no_main]
 
-use kernel::config::{ArmConfig, PAROL6};
+use kernel::config::{ArmConfig, PAROL6, PAROL6_VALIDATED};
 use kernel::{Fx, MotionTarget, Scalar};
 use libfuzzer_sys::fuzz_target;
 use protocol::receiver::{Received, Receiver};
@@ -24,7 +24,7 @@ fn within_limits<S: Scalar>(c: &ArmConfig, t: &MotionTarget<S>) -> bool {
 
 fn run<S: Scalar>(data: &[u8], lock: DialectLock) {
     let cfg = ProtocolConfig { lock, ..ProtocolConfig::DEFAULT };
-    let mut rx: Receiver<S> = Receiver::new(&PAROL6, cfg);
+    let mut rx: Receiver<S> = Receiver::new(&PAROL6_VALIDATED, cfg);
     let mut out = Line::new();
     for (i, &b) in data.iter().enumerate() {
         if let Some(r) = rx.push(b, (i as u32).wrapping_mul(7)) {
