@@ -133,14 +133,21 @@ impl JointConfig {
     pub const fn rad_per_count(&self) -> f64 {
         core::f64::consts::TAU / (COUNTS_PER_REV as f64 * self.gear_ratio as f64)
     }
-    /// Largest plausible change of the encoder reading in one tick (counts).
-    pub const fn max_jump_counts(&self, tick_hz: u32) -> i32 {
-        let window_s = 1.0 / tick_hz as f64 + 2.0 * ENCODER_FRAME_S;
+    /// Largest plausible change of the encoder reading between two
+    /// accepted samples `ticks` ticks apart (counts): that many ticks plus
+    /// two PWM frames of motion at the runaway velocity, plus the noise
+    /// allowance. The window grows by one tick per skipped sample.
+    pub const fn jump_window_counts(&self, tick_hz: u32, ticks: u32) -> i32 {
+        let window_s = ticks as f64 / tick_hz as f64 + 2.0 * ENCODER_FRAME_S;
         let c = self.runaway_velocity as f64 / self.rad_per_count() * window_s;
         // ceil for a positive value
         let t = c as i32;
         let t = if (t as f64) < c { t + 1 } else { t };
         t + JUMP_SLACK_COUNTS
+    }
+    /// Largest plausible change of the encoder reading in one tick (counts).
+    pub const fn max_jump_counts(&self, tick_hz: u32) -> i32 {
+        self.jump_window_counts(tick_hz, 1)
     }
     /// Nominal time (ms) homing needs at these speeds, over the whole range.
     pub const fn homing_nominal_ms(&self) -> f32 {
@@ -272,6 +279,11 @@ impl Validated {
 
 /// Upper bound of segment lengths, in ticks.
 pub const MAX_SEGMENT_TICKS: u32 = 256;
+/// Output speed (rad/s) at or below which a joint whose set-point is at rest
+/// counts as holding, not moving (the command timeout holds instead of
+/// latching; a link loss or `<HOME>` needs no stop). A joint holding its
+/// set-point corrects a count or two of error at Kp: a few mrad/s.
+pub const HOLD_SPEED: f32 = 0.01;
 /// Time each joint rests at the end of its homing before it counts as done,
 /// so the set-point taken from the estimate is where the joint is (ms).
 pub const HOMING_SETTLE_MS: u32 = 50;
@@ -486,9 +498,8 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     if j.runaway_velocity > 32.0 {
         return Err("runaway threshold absurdly high");
     }
-    let jump = j.max_jump_counts(c.tick_hz);
     // After coasting over invalid samples the window grows with their count.
-    if jump * (c.encoder_invalid_limit as i32 + 1) >= COUNTS_PER_REV / 4 {
+    if j.jump_window_counts(c.tick_hz, c.encoder_invalid_limit + 1) >= COUNTS_PER_REV / 4 {
         return Err("encoder plausibility window too wide to unwrap unambiguously");
     }
     if !(finite(j.max_acceleration) && j.max_acceleration > 0.0 && j.max_acceleration <= 200.0) {
@@ -609,7 +620,7 @@ mod tests {
         assert!(with(|c| c.joints[3].homing.fast_speed = 7.0).is_err());
         assert!(with(|c| c.joints[3].homing.switch_position = -3.0).is_err());
         assert!(with(|c| c.encoder_invalid_limit = 11).is_err());
-        assert!(with(|c| c.encoder_invalid_limit = 8).is_err()); // J3's window would exceed 1024 counts
+        assert!(with(|c| c.encoder_invalid_limit = 10).is_err()); // J3: 11 ticks + 2 frames exceed 1024 counts
         assert!(with(|c| c.joints[4].max_acceleration = 0.0).is_err());
     }
 

@@ -115,9 +115,12 @@ impl<S: Scalar> Kernel<S> {
         self.fault
     }
 
-    /// True while any set-point moves or any output is nonzero.
+    /// True while any set-point moves, or any output is above the holding
+    /// speed (a joint holding its set-point keeps a few mrad/s of
+    /// correction; `config::HOLD_SPEED`).
     pub fn moving(&self) -> bool {
-        self.axes.iter().any(|a| !a.interp.at_rest()) || self.last_out.iter().any(|v| *v != S::ZERO)
+        let hold = self.p.hold_speed;
+        self.axes.iter().any(|a| !a.interp.at_rest()) || self.last_out.iter().any(|v| v.abs() > hold)
     }
 
     /// The outputs returned by the last tick.

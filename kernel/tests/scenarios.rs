@@ -36,14 +36,15 @@ both!(
     tracking_at_100_hz,
     dropped_packet_does_not_stretch_motion,
     per_joint_homing_respects_dependencies,
-    homing_timeout_reports_h3_and_refuses_motion,
+    dead_homing_switch_faults_within_its_travel_and_reports_h3,
     hardware_overrun_faults,
     homed_axis_leaving_its_limits_faults,
     enable_is_refused_when_a_fault_is_detected_in_the_same_tick,
     home_during_boot_is_queued,
     acceleration_is_limited_in_operational,
     encoder_lost_while_fast_does_not_block_enable_forever,
-    a_single_far_target_is_cut_short_by_the_timeout,
+    a_go_to_completes_and_holds,
+    a_far_stream_sample_is_refused_as_a_jump,
     targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected,
     boot_timeout_names_the_unready_encoder_on_time,
     counts_out_of_range_are_lost_samples,
@@ -55,18 +56,31 @@ both!(
     switch_of_a_homed_axis_at_rest_during_homing_faults,
 );
 
+/// A joint dragged off its path by an outside force faults on its
+/// following error long before it can leave its limits (the position limit
+/// is the second line: it keeps enable refused while the joint is outside).
 fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
     let mut r = homed::<S>();
-    // J2 is dragged harder than its 3 rad/s clamp can resist, so it drifts at
-    // a net 0.5 rad/s (below its runaway speed) past its upper limit + margin.
+    // J2 is dragged harder than its 3 rad/s clamp can resist: it drifts at
+    // a net 0.5 rad/s toward its upper limit.
+    let q0 = r.plant.q[1];
     r.plant.disturbance[1] = 3.5;
-    let n = r.run_until(5_000, |o| o.status.state == State::Fault).expect("position fault");
+    let n = r.run_until(5_000, |o| o.status.state == State::Fault).expect("fault");
     let out = r.last.unwrap();
-    assert_eq!(out.status.fault.unwrap().reason, FaultReason::PositionLimit { axis: 1 });
-    let over = r.plant.q[1] - (PAROL6.joints[1].limit_max + PAROL6.position_margin) as f64;
-    assert!((0.0..0.01).contains(&over), "detected {over} rad past the margin after {n} ticks");
-    // Enable is refused while it is still outside.
+    assert_eq!(out.status.fault.unwrap().reason, FaultReason::FollowingError { axis: 1 });
+    // The arm is pushed at up to 3.5 rad/s (its output ramps against the
+    // push at the acceleration limit): 0.05 rad of error plus the 20 ms the
+    // error may last, at that speed.
+    let drift = r.plant.q[1] - q0;
+    let bound = f64::from(PAROL6.following_error) + 3.5 * (f64::from(PAROL6.following_error_ms) + 1.0) / 1000.0;
+    println!("J2 dragged at 3.5 rad/s: following-error fault after {n} ticks, {drift:.3} rad (bound {bound:.3})");
+    assert!(drift < bound, "faulted after {drift} rad of drift");
+    // Still dragged (outputs are zero in Fault) until past its limit + margin.
+    while r.plant.q[1] <= f64::from(PAROL6.joints[1].limit_max + PAROL6.position_margin) + 0.01 {
+        r.tick(None);
+    }
     r.plant.disturbance[1] = 0.0;
+    r.run(300); // at rest again (a moving joint would be refused as too fast)
     let out = r.enable();
     assert!(out.events.iter().any(|e| *e
         == Event::Rejected {
@@ -77,19 +91,8 @@ fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
     // The lower side: J3 (its switch is at the upper end) dragged below.
     let mut r = homed::<S>();
     r.plant.disturbance[2] = -(f64::from(PAROL6.joints[2].max_velocity) + 0.5);
-    r.run_until(10_000, |o| o.status.state == State::Fault).expect("position fault");
-    assert_eq!(r.last.unwrap().status.fault.unwrap().reason, FaultReason::PositionLimit { axis: 2 });
-    r.plant.disturbance[2] = 0.0;
-    let out = r.enable();
-    assert!(
-        out.events.iter().any(|e| *e
-            == Event::Rejected {
-                request: RequestKind::Enable,
-                reason: Reject::CauseActive(FaultReason::PositionLimit { axis: 2 })
-            }),
-        "{:?}",
-        out.events
-    );
+    r.run_until(10_000, |o| o.status.state == State::Fault).expect("fault");
+    assert_eq!(r.last.unwrap().status.fault.unwrap().reason, FaultReason::FollowingError { axis: 2 });
 }
 
 fn homed<S: Scalar>() -> Rig<S> {
@@ -279,24 +282,42 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
     assert!(out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason: Reject::Latched }));
 }
 
-/// The configurator's "go to" is a single command. The seed (and issue 2)
-/// define the soft E-stop by the command timeout alone: 100 ms after that
-/// command the arm ramps down and latches, wherever the set-point is. A
-/// settle-until-arrival variant was built and reverted (session 2) because
-/// it departs from that rule; this test pins the decision.
-fn a_single_far_target_is_cut_short_by_the_timeout<S: Scalar>() {
+/// The configurator's "go to" is a single frame with every velocity zero:
+/// a point-to-point move that completes (the command timeout does not cut
+/// it) and holds. Before issue 12 it was cut 0.9 rad short by the timeout.
+fn a_go_to_completes_and_holds<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
-    p[0] += 1.2; // J1 at 3 rad/s: 400 ms of set-point travel
-    let out = r.motion(p);
+    p[0] += 1.2; // J1 at 3 rad/s, 30 rad/s^2: 0.5 s
+    let out = r.goto(p);
     assert!(out.events.is_empty(), "{:?}", out.events);
-    let started = r.run_until(400, |o| o.status.state == State::Stopping).expect("the timeout fires");
-    assert!((100..=102).contains(&started), "soft stop {started} ticks after the command");
-    let stopped = r.run_until(200, |o| o.status.state == State::SoftEstop).expect("and latches");
-    assert!(started + stopped <= 200, "standstill {} ms after the command", started + stopped);
-    let short = (p[0] - r.plant.q[0]).abs();
-    println!("J1 stopped {short:.3} rad short of a 1.2 rad go-to");
-    assert!(short > 0.5, "the move was cut short, not completed");
+    assert!(!out.status.timeout_armed, "a go-to does not arm the timeout");
+    let goal = S::from_f32(p[0] as f32);
+    let n = r.run_until(2_000, |o| o.status.setpoint[0] == goal).expect("arrives");
+    assert!((480..=560).contains(&n), "set-point arrived after {n} ticks");
+    r.run(300);
+    assert_eq!(r.k.state(), State::Operational, "holds, no soft stop: {:?}", r.events);
+    assert!((r.plant.q[0] - p[0]).abs() < 0.01, "J1 {} vs {}", r.plant.q[0], p[0]);
+    assert!(!r.events.iter().any(|e| matches!(e, Event::SoftEstop { .. })));
+}
+
+/// A driver-dialect (stream) target farther from the set-point than one
+/// segment can travel is refused whole, and nothing moves.
+fn a_far_stream_sample_is_refused_as_a_jump<S: Scalar>() {
+    let mut r = homed::<S>();
+    let mut p = r.plant.q;
+    p[0] += 1.2;
+    let out = r.motion(p);
+    assert!(out
+        .events
+        .iter()
+        .any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason: Reject::TargetJump { axis: 0 } }));
+    let out = r.run(50);
+    assert!(out.act.velocity.iter().all(|v| v.abs().to_f32() < 0.01));
+    // A sample within one segment's travel is taken.
+    let mut near = r.plant.q;
+    near[0] += 0.1;
+    assert!(r.motion(near).events.is_empty());
 }
 
 fn enable_after_soft_stop_resyncs_without_a_jump<S: Scalar>() {
@@ -360,7 +381,9 @@ fn targets_exactly_at_the_limits_are_accepted_and_just_outside_rejected<S: Scala
     let q = r.plant.q.map(|x| S::from_f32(x as f32));
     let j = &PAROL6.joints[2];
     let at = |pos: S, vel: S| {
-        let mut t = kernel::MotionTarget { position: q, velocity: [S::ZERO; AXES], kind: kernel::MotionKind::Stream };
+        // A go-to: far targets are its business (a stream sample that far
+        // would be a TARGET_JUMP).
+        let mut t = kernel::MotionTarget { position: q, velocity: [S::ZERO; AXES], kind: kernel::MotionKind::GoTo };
         t.position[2] = pos;
         t.velocity[2] = vel;
         Request::Motion(t)
@@ -561,7 +584,7 @@ fn runaway_faults_every_axis_in_the_same_tick<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
     p[0] += 0.3;
-    r.motion(p);
+    r.goto(p);
     r.run(5);
     // J5 is pushed by an outside force beyond its runaway threshold.
     r.plant.disturbance[4] = 9.0;
@@ -572,10 +595,12 @@ fn runaway_faults_every_axis_in_the_same_tick<S: Scalar>() {
             faulted = Some(out);
             break;
         }
-        r.motion(p);
     }
     let out = faulted.expect("runaway detected");
-    assert_eq!(out.status.fault.unwrap().reason, FaultReason::Runaway { axis: 4 });
+    // Dragged at 9 rad/s, J5 is both off its path and too fast: whichever
+    // check sees it first names it; every axis stops in that tick.
+    let reason = out.status.fault.unwrap().reason;
+    assert!(matches!(reason, FaultReason::Runaway { axis: 4 } | FaultReason::FollowingError { axis: 4 }), "{reason:?}");
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO), "all axes zero in the fault tick");
     assert!(out.act.step_rate.iter().all(|v| *v == 0));
 }
@@ -684,9 +709,10 @@ fn acceleration_is_limited_in_operational<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
     p[0] = 1.0; // far away: the control law alone would jump to vmax
-    let mut prev = [0.0f32; AXES];
+    let first = r.goto(p);
+    let mut prev = first.act.velocity.map(|v| v.to_f32());
     for _ in 0..200 {
-        let out = r.motion(p);
+        let out = r.tick(None);
         for i in 0..AXES {
             let v = out.act.velocity[i].to_f32();
             let a_step = PAROL6.joints[i].max_acceleration / PAROL6.tick_hz as f32;
@@ -735,25 +761,34 @@ fn tracking_at_100_hz<S: Scalar>() {
     assert!(worst < 8e-3, "max tracking error {worst}");
 }
 
-/// The segment length is the typical interval, not the last one: one lost
-/// packet does not slow the next segment (the C++ firmware stretched it).
+/// The segment length is the typical interval, not the last one, and the
+/// set-point never needs to stop between samples of a steady stream: one
+/// lost packet does not stop or stall the motion (the C++ firmware stretched
+/// the next segment). J3 streams at 2 rad/s at 100 Hz, one sample is lost.
 fn dropped_packet_does_not_stretch_motion<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
-    for _ in 0..10 {
-        p[0] += 0.005;
-        r.motion(p);
-        r.run(9);
+    let mut prev = r.last.unwrap().status.setpoint[2].to_f32();
+    let mut slowest = f32::MAX;
+    for k in 0..40 {
+        p[2] -= 0.02;
+        if k != 25 {
+            let o = r.motion(p);
+            assert!(o.events.is_empty(), "{:?}", o.events);
+        } else {
+            r.tick(None);
+        }
+        for _ in 0..9 {
+            let sp = r.tick(None).status.setpoint[2].to_f32();
+            if k >= 15 {
+                slowest = slowest.min((prev - sp) * 1000.0);
+            }
+            prev = sp;
+        }
+        prev = r.last.unwrap().status.setpoint[2].to_f32();
     }
-    // Drop one packet: 20 ms gap.
-    r.run(10);
-    p[0] += 0.01;
-    let out = r.motion(p);
-    let start = out.status.setpoint[0].to_f32();
-    let out = r.run(10);
-    let end = out.status.setpoint[0].to_f32();
-    let target = p[0] as f32;
-    assert!((end - target).abs() < 1e-4, "segment stretched: {start} -> {end}, target {target}");
+    println!("J3 at 2 rad/s with one packet lost: slowest set-point speed {slowest:.3} rad/s");
+    assert!(slowest > 1.2, "the stream stalled: {slowest} rad/s");
 }
 
 fn per_joint_homing_respects_dependencies<S: Scalar>() {
@@ -784,18 +819,24 @@ fn per_joint_homing_respects_dependencies<S: Scalar>() {
     assert_eq!(r.last.unwrap().status.homing, HomingStatus::Complete);
 }
 
-fn homing_timeout_reports_h3_and_refuses_motion<S: Scalar>() {
+/// A dead J6 switch: the fast seek stops at its travel bound (range plus
+/// the switch's distance plus 0.1 rad), long before the per-axis timeout
+/// (12 s at 2 rad/s would be 24 rad of travel), with H3; motion refused.
+fn dead_homing_switch_faults_within_its_travel_and_reports_h3<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
     r.run(2);
-    // J6's switch is unplugged: it never triggers (move it out of reach).
-    r.plant.cfg.joints[5].homing.switch_position = 100.0;
+    r.plant.dead_switch = 0b10_0000;
+    let q0 = r.plant.q[5];
     r.tick(Some(Request::Home));
     let n = r.run_until(60_000, |o| o.status.state != State::Homing).unwrap();
     let out = r.last.unwrap();
     assert_eq!(out.status.state, State::Fault);
     assert_eq!(out.status.homing, HomingStatus::Failed);
-    assert!(matches!(out.status.fault.unwrap().reason, FaultReason::HomingTimeout { axis: 5, phase: Phase::FastSeek }));
-    assert!(n <= 12_001, "{n}");
+    assert_eq!(out.status.fault.unwrap().reason, FaultReason::HomingTravel { axis: 5, phase: Phase::FastSeek });
+    let travel = (r.plant.q[5] - q0).abs();
+    let bound = f64::from(PAROL6.joints[5].homing.max_travel);
+    println!("dead J6 switch: fault after {n} ticks and {travel:.3} rad (bound {bound:.3})");
+    assert!(travel <= bound + 0.01, "{travel} > {bound}");
     // The driver sends motion after H3 anyway: refused.
     let out = r.motion(r.plant.q);
     assert!(out.events.iter().any(|e| matches!(e, Event::Rejected { .. })));
@@ -868,6 +909,10 @@ fn variants_agree_on_the_same_scenario() {
         }
     }
     println!("f32 vs I8F24: max velocity difference {worst_v:.2e} rad/s, max position difference {worst_p:.2e} rad");
+    // The set-point profile takes discrete decisions (accelerate, cruise,
+    // brake, land) that rounding can put a tick apart in the two variants:
+    // outputs may then differ by up to two ticks of acceleration (J3..J6:
+    // 2 x 0.06 rad/s) for a tick; positions stay within a millirad.
     assert!(worst_p < 1e-3, "{worst_p}");
-    assert!(worst_v < 0.05, "{worst_v}");
+    assert!(worst_v < 0.13, "{worst_v}");
 }

@@ -110,7 +110,8 @@ impl<S: Scalar> Axis<S> {
             // A lost or implausible sample is skipped and the observer
             // coasts; more than `invalid_limit` in a row is a fault. The
             // plausibility window grows with the samples skipped.
-            let window = p.max_jump.unsigned_abs().saturating_mul(self.invalid.saturating_add(1));
+            let window =
+                p.max_jump.unsigned_abs().saturating_add(p.jump_per_tick.unsigned_abs().saturating_mul(self.invalid));
             let delta = count.map(|c| (c, self.unwrap.delta(c)));
             match delta {
                 Some((c, d)) if d.unsigned_abs() <= window => {
@@ -144,7 +145,11 @@ impl<S: Scalar> Axis<S> {
     /// Control for this axis in Operational: interpolate, control law,
     /// saturate, then limit the change from `prev` (last tick's output).
     fn follow(&mut self, axis: u8, p: &AxisParams<S>, prev: S, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
-        let (sp, ff) = self.interp.advance(&p.profile);
+        // The set-point of this tick is where the joint should be now; the
+        // feed-forward is the velocity that takes it to the next one (so the
+        // joint does not lag the set-point by a tick).
+        let sp = self.interp.setpoint();
+        let (_, ff) = self.interp.advance(&p.profile);
         self.path = sp;
         let (v, ok) = control_law(sp, ff, self.obs.x, p.kp, p.vmax, k.deadband);
         if !ok {

@@ -4,7 +4,8 @@
 //! parser ([`TargetLimits`]). Nothing here changes after `Kernel::new`.
 
 use crate::config::{
-    ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOMING_SETTLE_MS, MAX_SEGMENT_TICKS, POSITION_ABS_MAX,
+    ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOLD_SPEED, HOMING_SETTLE_MS, MAX_SEGMENT_TICKS,
+    POSITION_ABS_MAX,
 };
 use crate::homing::HomingParams;
 use crate::interp::{profile, Profile};
@@ -72,7 +73,10 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub k_count: S::Wide,
     pub k_rate: S::Wide,
     pub enc_sign: i32,
+    /// Plausibility window (counts) for one tick, and its growth per
+    /// skipped sample.
     pub max_jump: i32,
+    pub jump_per_tick: i32,
     pub switch_position: S,
     pub homing: HomingParams<S>,
     /// The set-point profile (acceleration and speed limits).
@@ -100,6 +104,7 @@ impl<S: Scalar> AxisParams<S> {
             k_rate: S::wide_from_f64(j.steps_per_rad() * motor),
             enc_sign: if j.encoder_reversed { -1 } else { 1 },
             max_jump: j.max_jump_counts(c.tick_hz),
+            jump_per_tick: j.jump_window_counts(c.tick_hz, 2).saturating_sub(j.max_jump_counts(c.tick_hz)),
             switch_position: S::from_f32(j.homing.switch_position),
             homing: HomingParams {
                 fast_toward: S::from_f32(j.homing.fast_speed * dir),
@@ -139,6 +144,8 @@ pub(crate) struct Params<S: Scalar> {
     pub fe_ticks: u32,
     /// Estimated speeds below this are no direction (rad/s).
     pub fe_min_speed: S,
+    /// Outputs at or below this are holding, not moving (rad/s).
+    pub hold_speed: S,
     pub invalid_limit: u32,
     pub pos_abs: S,
     pub vel_abs: S,
@@ -167,6 +174,7 @@ impl<S: Scalar> Params<S> {
             fe_half: S::from_f32(c.following_error * 0.5),
             fe_ticks: ms_to_ticks(c.following_error_ms, c.tick_hz),
             fe_min_speed: S::from_f32(0.05),
+            hold_speed: S::from_f32(HOLD_SPEED),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
             invalid_limit: c.encoder_invalid_limit,
             pos_abs: S::from_f32(POSITION_ABS_MAX),

@@ -2,9 +2,10 @@
 //! with the one safety monitor (`monitor::Monitor`) asserted at every tick.
 #![allow(dead_code, clippy::needless_range_loop)] // six axes: indices read best
 
-use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
+use kernel::config::{Validated, AXES, PAROL6_VALIDATED};
 use kernel::{Authority, Event, Kernel, MotionTarget, Request, Scalar, Sense, State, TickOutput};
 use monitor::plant::Witness;
+#[allow(unused_imports)]
 pub use monitor::plant::{EncoderFault, Plant};
 use monitor::{Monitor, Sent};
 
@@ -28,14 +29,25 @@ pub fn target<S: Scalar>(p: [f64; AXES]) -> MotionTarget<S> {
     }
 }
 
+/// A configurator-style go-to (every velocity zero, `MotionKind::GoTo`).
+pub fn goto<S: Scalar>(p: [f64; AXES]) -> MotionTarget<S> {
+    MotionTarget { kind: kernel::MotionKind::GoTo, ..target(p) }
+}
+
 impl<S: Scalar> Rig<S> {
     pub fn new(q: [f64; AXES]) -> Self {
-        let (k, auth) = Kernel::new(&PAROL6_VALIDATED);
+        Self::with_config(q, &PAROL6_VALIDATED)
+    }
+
+    /// The rig on another (validated) configuration: kernel, plant and
+    /// monitor all use it.
+    pub fn with_config(q: [f64; AXES], cfg: &Validated) -> Self {
+        let (k, auth) = Kernel::new(cfg);
         Rig {
             k,
             auth,
-            plant: Plant::at(q),
-            mon: Monitor::new(&PAROL6),
+            plant: Plant::at(q).with_config(*cfg.config()),
+            mon: Monitor::new(cfg.config()),
             wit: Witness::new(),
             events: Vec::new(),
             last: None,
@@ -81,7 +93,7 @@ impl<S: Scalar> Rig<S> {
     }
 
     /// Runs until `f` holds or `max` ticks pass; returns ticks taken.
-    pub fn run_until(&mut self, max: u32, f: impl Fn(&TickOutput<S>) -> bool) -> Option<u32> {
+    pub fn run_until(&mut self, max: u32, mut f: impl FnMut(&TickOutput<S>) -> bool) -> Option<u32> {
         for n in 1..=max {
             let out = self.tick(None);
             if f(&out) {
@@ -108,6 +120,10 @@ impl<S: Scalar> Rig<S> {
 
     pub fn motion(&mut self, p: [f64; AXES]) -> TickOutput<S> {
         self.tick(Some(Request::Motion(target(p))))
+    }
+
+    pub fn goto(&mut self, p: [f64; AXES]) -> TickOutput<S> {
+        self.tick(Some(Request::Motion(goto(p))))
     }
 
     pub fn rejected(&self) -> usize {
