@@ -22,7 +22,7 @@
 
 use core::fmt::{self, Write};
 
-use kernel::config::{ArmConfig, AXES};
+use kernel::config::{Validated, AXES};
 use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Scalar, Sense, TickOutput};
 use protocol::{Command, DialectLock, ParseError, Parser};
 
@@ -116,7 +116,7 @@ impl<'a> Reader<'a> {
         let hardware_fault = decode_hw(b[1]);
         let len = usize::from(b[2]);
         let frame = if len == 0 { None } else { Some(self.take(len)?) };
-        Ok(Some(TickInput { sense: Sense { encoders, limits: b[0], hardware_fault }, frame }))
+        Ok(Some(TickInput { sense: Sense { encoders, limits: b[0], hardware_fault, link_lost: false }, frame }))
     }
 }
 
@@ -285,7 +285,7 @@ pub fn tick<S: Scalar>(k: &mut Kernel<S>, sense: &Sense, request: Option<kernel:
 /// Replays `scenario` through a fresh `Kernel<S>` built from `config`, and a
 /// `Parser<S>` (auto dialect), handing one line per tick to `hooks`, framed
 /// by a header line and a summary line. Returns the number of ticks.
-pub fn replay<S: Bits, H: Hooks>(config: &ArmConfig, scenario: &[u8], hooks: &mut H) -> Result<u32, ScenarioError> {
+pub fn replay<S: Bits, H: Hooks>(config: &Validated, scenario: &[u8], hooks: &mut H) -> Result<u32, ScenarioError> {
     let mut rd = Reader::new(scenario)?;
     let (mut kernel, authority) = Kernel::<S>::new(config);
     let parser = Parser::<S>::new(config, DialectLock::Auto);

@@ -2,7 +2,7 @@
 //! counts: the recorded scenario's ticks (parse + tick), per variant.
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use emu_common::{Bits, Reader};
-use kernel::config::{PAROL6, PAROL6_VALIDATED};
+use kernel::config::PAROL6_VALIDATED;
 use kernel::{Fx, Kernel, Sense};
 use protocol::{DialectLock, Parser};
 

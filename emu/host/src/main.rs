@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use emu_common::{encode_tick, header, replay, Bits, Hooks, Reader};
-use kernel::config::{ArmConfig, Direction, AXES, PAROL6, PAROL6_VALIDATED};
+use kernel::config::{ArmConfig, Direction, Validated, AXES, PAROL6_VALIDATED};
 use kernel::homing::Phase;
 use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Sense, State};
 use protocol::{DialectLock, Parser};
@@ -81,9 +81,10 @@ fn driver_frame(seq: u32, p: &[f64; AXES], v: &[f64; AXES]) -> String {
 /// trajectory with one lost encoder sample and one malformed frame; silence
 /// (timeout soft stop, ramp, latched); ENABLE; a 0.3 s stream holding
 /// position; a hardware fault (tick overrun); ENABLE; idle.
-fn record<S: Bits>(cfg: &ArmConfig) -> (Vec<u8>, u32, Vec<State>) {
-    let (mut k, authority) = Kernel::<S>::new(cfg);
-    let parser = Parser::<S>::new(cfg, DialectLock::Auto);
+fn record<S: Bits>(v: &Validated) -> (Vec<u8>, u32, Vec<State>) {
+    let cfg = v.config();
+    let (mut k, authority) = Kernel::<S>::new(v);
+    let parser = Parser::<S>::new(v, DialectLock::Auto);
     let mut plant = Plant::new(cfg);
     let mut body = Vec::new();
     let mut ticks = 0u32;
@@ -148,6 +149,14 @@ fn record<S: Bits>(cfg: &ArmConfig) -> (Vec<u8>, u32, Vec<State>) {
         let lost = |s: &mut Sense| s.encoders[2] = EncoderSample::Lost;
         last_pos = step(&mut k, &mut plant, frame, if n == 555 { &lost } else { &none });
     }
+    // A last sample 0.25 rad ahead (within one segment's reach plus the
+    // braking distance), then silence: the set-point still moves when the
+    // command timeout expires (about 130-180 ms of travel), so the timeout
+    // starts the soft-stop ramp and latches (a stream that ends at rest at
+    // its target holds instead, issue 12).
+    seq += 1;
+    let ahead: [f64; AXES] = std::array::from_fn(|i| last_pos[i] + sign[i] * 0.25);
+    step(&mut k, &mut plant, Some(driver_frame(seq, &ahead, &[0.0; AXES])), &none);
     // Silence: command timeout, soft-stop ramp, latched soft E-stop.
     for _ in 0..300 {
         last_pos = step(&mut k, &mut plant, None, &none);
@@ -197,7 +206,7 @@ fn run(args: &[String]) -> Result<(), String> {
         "record" => {
             std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
             for (name, (data, ticks, states)) in
-                [("f32", record::<f32>(&PAROL6)), (<Fx as Bits>::NAME, record::<Fx>(&PAROL6))]
+                [("f32", record::<f32>(&PAROL6_VALIDATED)), (<Fx as Bits>::NAME, record::<Fx>(&PAROL6_VALIDATED))]
             {
                 let path = scenario_path(&dir, name);
                 std::fs::write(&path, &data).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -209,8 +218,8 @@ fn run(args: &[String]) -> Result<(), String> {
             let mut p = Print(String::new());
             let f32s = read(&scenario_path(&dir, "f32"))?;
             let fxs = read(&scenario_path(&dir, "fx"))?;
-            replay::<f32, _>(&PAROL6, &f32s, &mut p).map_err(|e| format!("{e:?}"))?;
-            replay::<Fx, _>(&PAROL6, &fxs, &mut p).map_err(|e| format!("{e:?}"))?;
+            replay::<f32, _>(&PAROL6_VALIDATED, &f32s, &mut p).map_err(|e| format!("{e:?}"))?;
+            replay::<Fx, _>(&PAROL6_VALIDATED, &fxs, &mut p).map_err(|e| format!("{e:?}"))?;
             print!("{}", p.0);
             Ok(())
         }

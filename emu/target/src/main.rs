@@ -19,7 +19,7 @@ use core::ptr::{addr_of, addr_of_mut};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hio};
 use emu_common::{replay, Hooks, LineBuf};
-use kernel::config::PAROL6;
+use kernel::config::PAROL6_VALIDATED;
 use kernel::Fx;
 use panic_semihosting as _;
 
@@ -254,7 +254,7 @@ fn main() -> ! {
         tick_sp: 0,
         tick_stack: [0; 2],
     };
-    match replay::<f32, _>(&PAROL6, SCENARIO_F32, &mut out) {
+    match replay::<f32, _>(&PAROL6_VALIDATED, SCENARIO_F32, &mut out) {
         Ok(n) => note!("f32: {n} ticks replayed"),
         Err(e) => {
             note!("FAIL: f32 scenario: {e:?}");
@@ -262,7 +262,7 @@ fn main() -> ! {
         }
     }
     out.variant = 1;
-    match replay::<Fx, _>(&PAROL6, SCENARIO_FX, &mut out) {
+    match replay::<Fx, _>(&PAROL6_VALIDATED, SCENARIO_FX, &mut out) {
         Ok(n) => note!("fx: {n} ticks replayed"),
         Err(e) => {
             note!("FAIL: fx scenario: {e:?}");
