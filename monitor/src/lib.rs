@@ -24,21 +24,26 @@
 //! | SR-1 | zero output in Boot and Unhomed; `Ready` only from Boot; with [`PlantFacts::clean_since_start`], each estimate starts at rest at the encoder's reading |
 //! | SR-2 | every output finite and within the joint's max velocity; step rate within the step generator's limit and the joint's speed, with the velocity's sign |
 //! | SR-4 | zero output on every axis in the tick a fault is raised |
-//! | SR-5 | Fault state iff a fault is latched; at most one fault event per tick; the first reason kept; Fault and SoftEstop left only by an accepted enable (or home from SoftEstop) |
+//! | SR-5 | Fault state iff a fault is latched; at most one fault event per tick; the first reason kept; Fault and SoftEstop left only by an accepted enable; `<HOME>` in SoftEstop or Fault refused (`Reject::Latched` for `<HOME>`) |
 //! | SR-6 | enable refused while a cause is in the sensors or outside Fault/SoftEstop; after enable set-points equal positions, timeout disarmed, no speed above vmax, no fault in the same tick; with [`PlantFacts::quiet_ticks`], a refusal's cause is real |
-//! | SR-7 | the soft stop starts exactly at the timeout; the ramp never speeds up or reverses, steps at most vmax/N, ends in exactly N ticks at zero with `Stopped`, and latches |
-//! | SR-8 | the timeout is armed only by an accepted motion command and disarmed by homing and enable |
+//! | SR-7 | a timeout stop only at the timeout; Stopping entered from Operational by a timeout stop or `HomingAfterStop` (or by a lost link, SR-31); the ramp never speeds up or reverses, steps at most vmax/N, ends in exactly N ticks at zero with `Stopped` and latches, or, after `<HOME>` while moving, starts homing (`HomingStarted`, the only Stopping -> Homing edge); `<HOME>` while moving stops first, at rest it does not |
+//! | SR-8 | the timeout is armed only by an accepted motion command, by every accepted stream sample, never by a go-to; disarmed by homing (and a `<HOME>` while moving) and enable |
 //! | SR-9 | an estimate above the runaway threshold is a fault |
 //! | SR-10 | a pressed switch in Operational, Stopping or SoftEstop, or on a homed axis at rest during homing, is a fault |
 //! | SR-11 | more than `encoder_invalid_limit` invalid samples in a row fault, and that joint is not homed until homed again |
 //! | SR-13 | in homing no axis moves before every axis of the earlier groups is homed and still; per-joint homing accepted only with its dependencies homed |
 //! | SR-14 | with [`PlantFacts::clean_homing`], a finished homing run zeroes each axis at its true angle |
-//! | SR-15 | motion accepted only in Operational; every refusal reported against the request that was sent; no event lost |
+//! | SR-15 | motion accepted only in Operational; every refusal reported against the request that was sent; no event lost; no `Reject::Internal` |
 //! | SR-16 | in homing an axis moves only in a moving phase; no moving phase outside Homing |
-//! | SR-17 | accepted targets valid; a clearly valid target in Operational accepted |
+//! | SR-17 | accepted targets valid; a clearly valid target in Operational accepted (or refused as a jump, SR-30) |
 //! | SR-18 | in Operational the set-point moves at most vmax/tick_hz per tick |
-//! | SR-19 | in Operational and Stopping every axis is homed and within its limits plus margin |
-//! | SR-25 | in Operational the output changes by at most max_acceleration/tick_hz per tick |
+//! | SR-19 | in Operational and Stopping every axis is homed (but the aborted run's, in a stop after a lost link in homing) and within its limits plus margin; with [`PlantFacts`], after a resync inside the limits and nothing injected since, every homed joint's true angle within its limits plus `ArmConfig::overrun_bound` (+ 2 mrad) |
+//! | SR-25 | in Operational and Homing the output changes by at most max_acceleration/tick_hz per tick (in Homing a stop to zero at the axis's switch may be immediate) |
+//! | SR-27 | in Operational the set-point velocity, computed from consecutive set-points, changes by at most max_acceleration/tick_hz plus the landing allowance and rounding (see `Monitor::check_setpoints`); a set-point never crosses its target and stays once there; set-points within the joint limits (or the resync point) |
+//! | SR-28 | homing travel per phase within `homing.max_travel` (fast seek) or `JointConfig::homing_phase_travel()`, else a fault by then; with [`PlantFacts`], no `FollowingError` unless something was injected since the last resync, and a stalled or reversed joint whose set-point stays beyond the bound (+ [`FE_LIVENESS_SLACK`]) from its true angle faults within the bound's time (+ slack) |
+//! | SR-29 | at the command timeout exactly one of: a timeout stop, `Holding`, a link-loss stop; `Holding` never while a set-point or an output above [`HOLD_SPEED`] moves, and it stays Operational, disarmed; no timeout stop of an arm at rest at its targets |
+//! | SR-30 | a stream sample is accepted only within [`max_jump`] (+ [`JUMP_SLACK`]) of the set-point or the previous target on every axis, and refused (`TargetJump`) only beyond it; never a go-to |
+//! | SR-31 | a lost link while moving, homing, or stopping to home starts a soft stop (`StopCause::LinkLost`) at once, and only then; an interrupted homing run is reported failed (H3) |
 //!
 //! A std caller with a `TickOutput<f32>` per tick:
 //!
@@ -77,13 +82,26 @@ use core::fmt;
 use kernel::config::{ms_to_ticks, ArmConfig, AXES, COUNTS_PER_REV};
 use kernel::homing::Phase;
 use kernel::{
-    EncoderSample, Event, Fault, FaultReason, MotionTarget, Reject, Request, RequestKind, Scalar, Sense, State,
-    TickOutput,
+    EncoderSample, Event, Fault, FaultReason, HomingStatus, MotionKind, MotionTarget, Reject, Request, RequestKind,
+    Scalar, Sense, State, StopCause, TickOutput,
 };
 
 /// Ticks of rest with nothing injected after which the estimates have
 /// settled (the observer's time constant is about 1/alpha = 10 ticks).
 pub const QUIET_TICKS: u32 = 300;
+
+/// SR-29, SR-31: an output at or below this speed (rad/s) is a joint
+/// holding its set-point (correcting a count or two of error), not motion:
+/// the hold rule of `SAFETY.md` (the kernel's `config::HOLD_SPEED`). The
+/// monitor judges hold versus latch only outside a band of 0.1 % around it.
+pub const HOLD_SPEED: f64 = 0.01;
+
+/// SR-28: extra distance (rad) and time (ticks) the monitor allows, beyond
+/// the following-error bound and its time, before a joint with a broken
+/// motor (stalled or reversed) that is commanded away from where it stays
+/// must have faulted: the observer's lag behind the true angle (the monitor
+/// measures against the plant's true angle).
+pub const FE_LIVENESS_SLACK: (f64, u32) = (0.03, 20);
 
 /// SR-13, the seed's homing order (J6; then J5, J4; then J1, J2, J3), written
 /// out here from the requirement, independently of the kernel's tables: the
@@ -170,6 +188,16 @@ pub struct PlantFacts {
     /// Nothing was injected during the current homing run (SR-14's check of
     /// the captured zero needs a real switch edge).
     pub clean_homing: bool,
+    /// Something that can move a joint off its command or fool the
+    /// estimate is injected in this tick: an encoder fault, glitch or
+    /// slip, a forced switch, an outside force, a hardware fault, a
+    /// reversed or stalled motor, a hand-made sensor value (not a lost
+    /// link, not a dead switch). SR-28's and SR-19's clean-plant checks
+    /// need a run with none since the set-points were last resynchronised.
+    pub disturbed: bool,
+    /// Joints whose motor is stalled or turns the wrong way (bit per joint),
+    /// for SR-28's liveness check.
+    pub broken_motor: u8,
 }
 
 /// A violated requirement: which one, on which axis, what, and the numbers.
@@ -236,7 +264,7 @@ pub struct Stats {
     /// Requests rejected.
     pub rejected: u64,
     /// Faults latched, by reason kind (see [`fault_kind`]).
-    pub faults: [u64; 9],
+    pub faults: [u64; 11],
     /// Enables accepted.
     pub enabled: u64,
     /// Enables refused because a cause was present.
@@ -252,6 +280,23 @@ pub struct Stats {
     /// Enables sent in Fault or SoftEstop after the arm had rested with
     /// nothing injected for `QUIET_TICKS` (SR-6's liveness check applies).
     pub quiet_enables: u64,
+    /// Go-to targets accepted.
+    pub goto_accepted: u64,
+    /// Stream samples refused as a jump (`TargetJump`).
+    pub target_jumps: u64,
+    /// Command timeouts that held (`Holding`) instead of latching.
+    pub holds: u64,
+    /// Soft stops started by a lost link.
+    pub link_stops: u64,
+    /// `<HOME>` accepted while moving (a stop first, `HomingAfterStop`).
+    pub homes_after_stop: u64,
+    /// Targets accepted inside the set-point's braking distance, in its
+    /// direction of motion (SR-27's acceleration bound cannot hold with
+    /// "never past the target": not judged until the axis rests; see
+    /// [`Monitor`]).
+    pub infeasible_retargets: u64,
+    /// Ticks with a broken motor (stalled or reversed) on some joint.
+    pub broken_motor_ticks: u64,
 }
 
 fn inc(x: &mut u64) {
@@ -278,6 +323,13 @@ impl Stats {
         add(&mut self.homing_done, o.homing_done);
         add(&mut self.moving_ticks, o.moving_ticks);
         add(&mut self.quiet_enables, o.quiet_enables);
+        add(&mut self.goto_accepted, o.goto_accepted);
+        add(&mut self.target_jumps, o.target_jumps);
+        add(&mut self.holds, o.holds);
+        add(&mut self.link_stops, o.link_stops);
+        add(&mut self.homes_after_stop, o.homes_after_stop);
+        add(&mut self.infeasible_retargets, o.infeasible_retargets);
+        add(&mut self.broken_motor_ticks, o.broken_motor_ticks);
     }
 }
 
@@ -381,6 +433,38 @@ pub struct Monitor<S> {
     since_accept: Option<u32>,
     lost_streak: [u32; AXES],
     must_rehome: u8,
+    /// SR-27: the set-point velocity of the last tick (rad/s, from
+    /// consecutive set-points), when the last tick was Operational.
+    sp_vel: Option<[f64; AXES]>,
+    /// SR-29, SR-31: the set-points did not change in the last tick (known
+    /// when it was Operational).
+    prev_sp_static: Option<bool>,
+    /// SR-19: the running stop came from Homing (a lost link): joints of
+    /// the aborted run are not homed.
+    stopping_from_homing: bool,
+    /// SR-27, SR-30: the target the set-points move toward (the last
+    /// accepted one, or the resynchronised set-point), when known.
+    target: Option<[S; AXES]>,
+    /// SR-27: the set-points where Operational was entered (resync).
+    anchor: [f64; AXES],
+    /// SR-27: axes given a target inside their braking distance, not
+    /// judged for acceleration until at rest at it for long enough.
+    infeasible: u8,
+    /// SR-27: ticks each set-point has rested (unchanged).
+    rest_ticks: [u32; AXES],
+    /// SR-7: the running ramp ends in homing (`HomingAfterStop`).
+    pending_home: bool,
+    /// SR-19, SR-28: something was injected since the set-points were last
+    /// resynchronised (only with plant facts).
+    dirty: bool,
+    /// SR-19: at the last resync every homed joint was inside its limits.
+    inside_at_resync: bool,
+    /// SR-28: each axis's homing phase and the estimate where it began.
+    home_phase: [Phase; AXES],
+    home_origin: [f64; AXES],
+    /// SR-28: consecutive Operational ticks a broken joint's set-point has
+    /// been beyond the following-error bound from its true angle.
+    fe_over: [u32; AXES],
     /// Coverage counters.
     pub stats: Stats,
 }
@@ -406,6 +490,19 @@ impl<S: Scalar> Monitor<S> {
             since_accept: None,
             lost_streak: [0; AXES],
             must_rehome: 0,
+            sp_vel: None,
+            prev_sp_static: None,
+            stopping_from_homing: false,
+            target: None,
+            anchor: [0.0; AXES],
+            infeasible: 0,
+            rest_ticks: [0; AXES],
+            pending_home: false,
+            dirty: false,
+            inside_at_resync: false,
+            home_phase: [Phase::Idle; AXES],
+            home_origin: [0.0; AXES],
+            fe_over: [0; AXES],
             stats: Stats::default(),
         }
     }
@@ -515,6 +612,23 @@ impl<S: Scalar> Monitor<S> {
             }
         }
         let all_zero = out.act.velocity.iter().all(|v| *v == S::ZERO) && out.act.step_rate.iter().all(|r| *r == 0);
+        let motion_accepted = accepted && matches!(sent, Some(Sent::Motion(_)));
+        let accepted_target = match sent {
+            Some(Sent::Motion(Some(t))) if motion_accepted => Some(*t),
+            _ => None,
+        };
+        let home_sent = matches!(sent, Some(Sent::Home | Sent::HomeJoint(_)));
+        let after_stop = has(&Event::HomingAfterStop);
+        let homing_started = out.events.iter().any(|e| matches!(e, Event::HomingStarted { .. }));
+        // The target the set-points move toward in this tick (Operational):
+        // this tick's accepted target, else the last one.
+        let old_target = self.target;
+        let target_now = if motion_accepted { accepted_target.map(|t| t.position) } else { old_target };
+        if let Some(p) = plant {
+            if p.broken_motor != 0 {
+                inc(&mut self.stats.broken_motor_ticks);
+            }
+        }
 
         self.check_outputs(out, &fail)?;
 
@@ -584,13 +698,19 @@ impl<S: Scalar> Monitor<S> {
             (false, false) => ensure!(n_faults == 0, fail("SR-5", "a fault event outside Fault")),
         }
 
-        // SR-5, SR-7: SoftEstop is latched until enable or home.
+        // SR-5: SoftEstop is latched until an accepted enable; `<HOME>` in
+        // SoftEstop or Fault is refused (only `<ENABLE>` clears a latch).
         if prev == State::SoftEstop && !matches!(st, State::SoftEstop | State::Fault) {
-            let ok = match st {
-                State::Homing => matches!(sent, Some(Sent::Home | Sent::HomeJoint(_))) && accepted,
-                _ => enable_sent && enabled == Some(st),
-            };
-            ensure!(ok, fail("SR-5", "left SoftEstop without an accepted enable or home"));
+            ensure!(enable_sent && enabled == Some(st), fail("SR-5", "left SoftEstop without an accepted enable"));
+        }
+        if home_sent && matches!(prev, State::SoftEstop | State::Fault) {
+            ensure!(!accepted, fail("SR-5", "HOME accepted while a soft E-stop or fault is latched"));
+            if matches!(sent, Some(Sent::Home)) {
+                ensure!(
+                    matches!(rejected, Some((_, Reject::Latched))),
+                    fail("SR-5", "HOME while latched refused for a reason other than Latched")
+                );
+            }
         }
 
         // SR-6: enable is refused while a cause is present in this tick's
@@ -671,32 +791,87 @@ impl<S: Scalar> Monitor<S> {
             }
         }
 
-        // SR-7: the soft E-stop ramp: starts exactly `timeout` ticks after the
-        // last accepted command when armed, never increases or reverses,
-        // steps at most vmax/N, reaches zero within N ticks and latches.
+        // SR-7, SR-29, SR-31: what starts a stop. At the command timeout
+        // (exactly `timeout` ticks after the last accepted stream sample,
+        // armed) the kernel either latches interrupted motion (a soft stop)
+        // or holds an arm at rest at its target; a lost link may have
+        // stopped it first. Nothing else starts a timeout stop or a hold.
         let stop_event = out.events.iter().any(|e| matches!(e, Event::SoftEstop { .. }));
+        let timeout_stop =
+            out.events.iter().any(|e| matches!(e, Event::SoftEstop { cause: StopCause::CommandTimeout { .. } }));
+        let link_stop = has(&Event::SoftEstop { cause: StopCause::LinkLost });
+        let holding = has(&Event::Holding);
         let waited = self.since_accept.map(|t| t.saturating_add(1));
         let due = prev == State::Operational && self.prev_armed && waited == Some(self.timeout_ticks) && !accepted;
-        ensure!(
-            stop_event == due,
-            fail(
-                "SR-7",
-                if due {
-                    "no soft stop at the command timeout"
-                } else {
-                    "a soft stop other than at the command timeout"
-                }
-            )
-            .got(waited.map_or(-1.0, f64::from))
-            .bound(f64::from(self.timeout_ticks))
-        );
-        if st == State::Stopping || (prev == State::Stopping && st == State::SoftEstop) {
+        let timing = |sr, what| fail(sr, what).got(waited.map_or(-1.0, f64::from)).bound(f64::from(self.timeout_ticks));
+        if due {
+            let n = [timeout_stop, holding, link_stop].iter().filter(|x| **x).count();
+            ensure!(n == 1, timing("SR-29", "not exactly one of soft stop, hold, link stop at the command timeout"));
+        } else {
+            ensure!(!timeout_stop, timing("SR-7", "a soft stop other than at the command timeout"));
+            ensure!(!holding, timing("SR-29", "Holding other than at the command timeout"));
+        }
+        // Moving or at rest, judged from the last tick (the kernel decides
+        // before this tick's outputs): set-points at rest at their target
+        // (unchanged for a tick, equal to it), outputs at or below the
+        // holding speed. Unknown without the target (then not judged).
+        let out_over = self.prev_out.iter().any(|v| f(*v).abs() > HOLD_SPEED * 1.001);
+        let out_under = self.prev_out.iter().all(|v| f(*v).abs() <= HOLD_SPEED * 0.999);
+        let at_target = target_now.map(|t| t == self.prev_setpoint);
+        let surely_still = at_target == Some(true) && self.prev_sp_static == Some(true) && out_under;
+        let surely_moving = out_over || at_target == Some(false) || self.prev_sp_static == Some(false);
+        if holding {
+            inc(&mut self.stats.holds);
+            ensure!(!surely_moving, fail("SR-29", "Holding while a set-point or an output still moves"));
             ensure!(
-                matches!(prev, State::Operational | State::Stopping),
+                matches!(st, State::Operational | State::Fault) && !out.status.timeout_armed,
+                fail("SR-29", "Holding did not stay Operational with the timeout disarmed")
+            );
+        }
+        if timeout_stop {
+            ensure!(!surely_still, fail("SR-29", "latched at the timeout with every joint at rest at its target"));
+        }
+        // SR-31: a lost link stops a moving arm, a homing run, and a stop
+        // that was to end in homing, at once; an arm at rest holds.
+        let eff_homing = prev == State::Homing || (homing_started && prev != State::Stopping);
+        let eff_pending = (prev == State::Stopping && self.pending_home) || after_stop;
+        let op = prev == State::Operational && !eff_homing && !eff_pending;
+        if sense.link_lost && (eff_homing || eff_pending || (op && surely_moving)) {
+            ensure!(link_stop, fail("SR-31", "link lost while moving or homing without a soft stop"));
+        }
+        if link_stop {
+            inc(&mut self.stats.link_stops);
+            ensure!(
+                sense.link_lost && (eff_homing || eff_pending || (op && !surely_still)),
+                fail("SR-31", "a link-loss stop without a lost link, or of an arm at rest")
+            );
+            ensure!(
+                matches!(st, State::Stopping | State::Fault),
+                fail("SR-31", "a link-loss stop did not start the ramp")
+            );
+            if eff_homing {
+                ensure!(
+                    out.status.homing == HomingStatus::Failed,
+                    fail("SR-31", "homing interrupted by a lost link not reported failed (H3)")
+                );
+            }
+        }
+        // SR-7: the ramp never increases or reverses, steps at most vmax/N,
+        // reaches zero in exactly N ticks and latches SoftEstop, or, after
+        // `<HOME>` while moving (`HomingAfterStop`), starts homing.
+        if st == State::Stopping && prev != State::Stopping {
+            ensure!(
+                timeout_stop || link_stop || (after_stop && prev == State::Operational),
+                fail("SR-7", "Stopping entered without a soft stop or HomingAfterStop event")
+            );
+            ensure!(
+                prev == State::Operational || link_stop,
                 fail("SR-7", "Stopping entered from a state other than Operational")
             );
-            if prev == State::Operational {
-                ensure!(stop_event, fail("SR-7", "Stopping without a SoftEstop event"));
+            self.stopping_from_homing = prev != State::Operational;
+        }
+        if st == State::Stopping || (prev == State::Stopping && matches!(st, State::SoftEstop | State::Homing)) {
+            if prev != State::Stopping {
                 self.stopping_ticks = 0;
             }
             self.stopping_ticks = self.stopping_ticks.saturating_add(1);
@@ -717,19 +892,35 @@ impl<S: Scalar> Monitor<S> {
                     .got(step)
                     .bound(bound));
             }
-            if st == State::Stopping {
-                ensure!(
+            match st {
+                State::Stopping => ensure!(
                     self.stopping_ticks < self.stop_ticks,
                     fail("SR-7", "still Stopping after N ticks")
                         .got(f64::from(self.stopping_ticks))
                         .bound(f64::from(self.stop_ticks))
-                );
-            } else {
-                ensure!(all_zero && has(&Event::Stopped), fail("SR-7", "ramp end without zero output and Stopped"));
+                ),
+                State::Homing => {
+                    ensure!(
+                        self.pending_home && all_zero && homing_started,
+                        fail("SR-7", "Stopping left for Homing without a pending HOME, zero output and HomingStarted")
+                    );
+                    ensure!(
+                        self.stopping_ticks == self.stop_ticks,
+                        fail("SR-7", "the stop before homing did not take exactly N ticks")
+                            .got(f64::from(self.stopping_ticks))
+                            .bound(f64::from(self.stop_ticks))
+                    );
+                }
+                _ => {
+                    ensure!(all_zero && has(&Event::Stopped), fail("SR-7", "ramp end without zero output and Stopped"))
+                }
             }
         }
-        if prev == State::Stopping && !matches!(st, State::Stopping | State::SoftEstop | State::Fault) {
-            return Err(fail("SR-7", "left Stopping other than to SoftEstop or Fault"));
+        if prev == State::Stopping
+            && !matches!(st, State::Stopping | State::SoftEstop | State::Fault)
+            && !(st == State::Homing && self.pending_home)
+        {
+            return Err(fail("SR-7", "left Stopping other than to SoftEstop, Fault, or Homing after a HOME"));
         }
         if has(&Event::Stopped) {
             // The ramp can end in the tick a fault is detected: the fault
@@ -750,15 +941,44 @@ impl<S: Scalar> Monitor<S> {
                     .bound(f64::from(self.stop_ticks))
             );
         }
+        if after_stop {
+            inc(&mut self.stats.homes_after_stop);
+            ensure!(
+                prev == State::Operational && home_sent && accepted && matches!(st, State::Stopping | State::Fault),
+                fail("SR-7", "HomingAfterStop other than for a HOME accepted while moving")
+            );
+            ensure!(!surely_still, fail("SR-7", "HOME stopped an arm at rest first (it must home at once)"));
+        }
+        if home_sent && accepted && prev == State::Operational && surely_moving && !link_stop {
+            ensure!(after_stop, fail("SR-7", "HOME while moving started homing without a stop first"));
+        }
+        self.pending_home = match st {
+            State::Stopping => (self.pending_home || after_stop) && !link_stop,
+            _ => false,
+        };
+        let _ = stop_event;
 
-        // SR-8: the timeout is armed only by an accepted motion command, and
-        // disarmed by homing and enable.
-        let motion_accepted = accepted && matches!(sent, Some(Sent::Motion(_)));
+        // SR-8: the timeout is armed only by an accepted stream sample (a
+        // go-to completes without one), and disarmed by homing and enable.
         if out.status.timeout_armed && !self.prev_armed {
             ensure!(motion_accepted, fail("SR-8", "timeout armed without an accepted motion command"));
         }
-        if out.events.iter().any(|e| matches!(e, Event::HomingStarted { .. })) {
-            ensure!(!out.status.timeout_armed, fail("SR-8", "timeout armed after homing started"));
+        if homing_started || after_stop {
+            ensure!(!out.status.timeout_armed, fail("SR-8", "timeout armed after homing started or was requested"));
+        }
+        if let (Some(t), State::Operational) = (accepted_target, st) {
+            let want = t.kind == MotionKind::Stream;
+            ensure!(
+                out.status.timeout_armed == want,
+                fail(
+                    "SR-8",
+                    if want {
+                        "an accepted stream sample did not arm the timeout"
+                    } else {
+                        "an accepted go-to armed the timeout"
+                    }
+                )
+            );
         }
         self.since_accept = if motion_accepted { Some(0) } else { self.since_accept.map(|t| t.saturating_add(1)) };
 
@@ -889,7 +1109,13 @@ impl<S: Scalar> Monitor<S> {
 
         // SR-15: motion is accepted only in Operational. SR-17: accepted
         // targets are finite and within the limits, and a clearly valid
-        // target in Operational is accepted.
+        // target in Operational is accepted (or, a stream sample, refused
+        // as a jump: SR-30). SR-30: a stream sample is accepted only within
+        // one segment's travel of the set-point or of the previous target,
+        // and refused as a jump only beyond it.
+        if matches!(rejected, Some((_, Reject::Internal))) {
+            return Err(fail("SR-15", "a request refused for an internal limit (Reject::Internal)"));
+        }
         if let Some(Sent::Motion(t)) = sent {
             if motion_accepted {
                 inc(&mut self.stats.accepted);
@@ -897,8 +1123,45 @@ impl<S: Scalar> Monitor<S> {
             }
             if let Some(t) = t {
                 let verdict = validity(&self.cfg, t);
+                let reason = rejected.map(|r| r.1);
+                // (axis, distance, bound) of each axis, when the previous
+                // target is known.
+                let jump = |i: usize| -> Option<(f64, f64)> {
+                    let (j, p) = (self.cfg.joints.get(i)?, f(*t.position.get(i)?));
+                    let from_sp = (p - f(*self.prev_setpoint.get(i)?)).abs();
+                    let from_last = (p - f(*old_target?.get(i)?)).abs();
+                    Some((from_sp.min(from_last), max_jump(&self.cfg, j)))
+                };
+                let stream = t.kind == MotionKind::Stream;
                 if motion_accepted {
                     ensure!(verdict != Validity::Invalid, fail("SR-17", "invalid target accepted"));
+                    if !stream {
+                        inc(&mut self.stats.goto_accepted);
+                    }
+                    for i in 0..AXES {
+                        if let (true, Some((d, b))) = (stream, jump(i)) {
+                            ensure!(
+                                d <= b + JUMP_SLACK,
+                                fail("SR-30", "stream sample beyond a segment's travel accepted").on(i).got(d).bound(b)
+                            );
+                        }
+                    }
+                } else if let Some(Reject::TargetJump { axis }) = reason {
+                    inc(&mut self.stats.target_jumps);
+                    let i = usize::from(axis);
+                    ensure!(
+                        stream && prev == State::Operational && verdict != Validity::Invalid,
+                        fail("SR-30", "TargetJump for a go-to, an invalid target, or outside Operational").on(i)
+                    );
+                    if let Some((d, b)) = jump(i) {
+                        ensure!(
+                            d >= b - JUMP_SLACK,
+                            fail("SR-30", "stream sample within a segment's travel refused as a jump")
+                                .on(i)
+                                .got(d)
+                                .bound(b)
+                        );
+                    }
                 } else if prev == State::Operational && verdict == Validity::Valid {
                     return Err(fail("SR-17", "valid target rejected in Operational"));
                 }
@@ -916,12 +1179,24 @@ impl<S: Scalar> Monitor<S> {
             }
         }
 
+        // SR-27: set-points are acceleration-limited, never pass a target
+        // they approach, and stay inside the joint limits (or between
+        // them and where Operational was entered).
+        self.check_setpoints(out, prev, old_target, target_now, accepted_target.is_some(), &fail)?;
+
         // SR-19: in Operational and Stopping every (homed) axis is within its
-        // limits plus the margin.
+        // limits plus the margin; Stopping after a lost link in homing has
+        // the aborted run's joints unhomed.
         if matches!(st, State::Operational | State::Stopping) {
-            ensure!(out.status.homed == ALL, fail("SR-19", "Operational or Stopping with a joint unhomed"));
+            ensure!(
+                out.status.homed == ALL || (st == State::Stopping && self.stopping_from_homing),
+                fail("SR-19", "Operational or Stopping with a joint unhomed")
+            );
             let m = self.cfg.position_margin;
             for (i, (x, j)) in out.status.position.iter().zip(cfg_joints(&self.cfg)).enumerate() {
+                if out.status.homed & bit(i) == 0 {
+                    continue;
+                }
                 let (lo, hi) = (j.limit_min - m, j.limit_max + m);
                 ensure!(
                     *x >= S::from_f32(lo) && *x <= S::from_f32(hi),
@@ -932,9 +1207,111 @@ impl<S: Scalar> Monitor<S> {
                 );
             }
         }
+        // SR-19, with the plant's facts: after a resync inside the limits
+        // with nothing injected since, every homed joint stays within its
+        // limits plus `ArmConfig::overrun_bound` (soft-stop overrun plus the
+        // following error), measured at its true angle (plus 2 mrad for
+        // the encoder's quantisation and the estimate's lag).
+        if let Some(p) = plant {
+            let resync =
+                enabled.is_some() || homing_started || out.events.iter().any(|e| matches!(e, Event::HomingDone { .. }));
+            if resync {
+                self.dirty = false;
+                self.inside_at_resync =
+                    out.status.position.iter().zip(cfg_joints(&self.cfg)).enumerate().all(|(i, (x, j))| {
+                        out.status.homed & bit(i) == 0
+                            || (f(*x) >= f64::from(j.limit_min) && f(*x) <= f64::from(j.limit_max))
+                    });
+            }
+            self.dirty |= p.disturbed;
+            if matches!(st, State::Operational | State::Stopping) && !self.dirty && self.inside_at_resync {
+                for (i, (q, j)) in p.q.iter().zip(cfg_joints(&self.cfg)).enumerate() {
+                    if out.status.homed & bit(i) == 0 {
+                        continue;
+                    }
+                    let ob = f64::from(self.cfg.overrun_bound(j)) + 2e-3;
+                    let (lo, hi) = (f64::from(j.limit_min) - ob, f64::from(j.limit_max) + ob);
+                    ensure!(
+                        *q >= lo && *q <= hi,
+                        fail("SR-19", "joint beyond its limits plus the overrun bound on a clean plant")
+                            .on(i)
+                            .got(*q)
+                            .bound(if *q < 0.0 { lo } else { hi })
+                    );
+                }
+            }
+        }
 
-        // SR-25: in Operational the output changes by at most
-        // max_acceleration / tick_hz per tick.
+        // SR-28: following error. With the plant's facts: a
+        // FollowingError fault only after something was injected since the
+        // set-points were resynchronised; and a joint whose motor is stalled
+        // or reversed, with its set-point farther than the bound (plus
+        // `FE_LIVENESS_SLACK`) from its true angle for longer than the
+        // bound's time (plus slack) in Operational, has faulted by then.
+        if let Some(p) = plant {
+            if let (true, Some(FaultReason::FollowingError { axis })) = (n_faults > 0, fault_event) {
+                ensure!(
+                    self.dirty,
+                    fail("SR-28", "following-error fault with nothing injected since the last resync")
+                        .on(usize::from(axis))
+                );
+            }
+            let fe = f64::from(self.cfg.following_error) + FE_LIVENESS_SLACK.0;
+            let limit = ms_to_ticks(self.cfg.following_error_ms, self.cfg.tick_hz).saturating_add(FE_LIVENESS_SLACK.1);
+            for (i, ((n, sp), q)) in self.fe_over.iter_mut().zip(out.status.setpoint.iter()).zip(p.q.iter()).enumerate()
+            {
+                let broken = p.broken_motor & bit(i) != 0;
+                let over = st == State::Operational && prev == State::Operational && broken && (f(*sp) - q).abs() > fe;
+                *n = if over { n.saturating_add(1) } else { 0 };
+                ensure!(
+                    *n <= limit,
+                    fail("SR-28", "a stalled or reversed joint off its set-point without a fault")
+                        .on(i)
+                        .got(f64::from(*n))
+                        .bound(f64::from(limit))
+                );
+            }
+        }
+        // SR-28: homing travel. The fast seek moves at most
+        // `homing.max_travel` from where it began, every other phase at most
+        // `JointConfig::homing_phase_travel()`; beyond, the kernel has
+        // faulted (HomingTravel) by that tick.
+        match (st, phases) {
+            (State::Homing, Some(ph)) => {
+                for (i, (((p, last), origin), (x, j))) in ph
+                    .iter()
+                    .zip(self.home_phase.iter())
+                    .zip(self.home_origin.iter_mut())
+                    .zip(out.status.position.iter().zip(cfg_joints(&self.cfg)))
+                    .enumerate()
+                {
+                    if *p != *last || prev != State::Homing {
+                        *origin = f(*x);
+                    } else if p.is_moving() {
+                        let bound = f64::from(if *p == Phase::FastSeek {
+                            j.homing.max_travel
+                        } else {
+                            j.homing_phase_travel()
+                        });
+                        let d = (f(*x) - *origin).abs();
+                        ensure!(
+                            d <= bound * 1.0001 + 1e-5,
+                            fail("SR-28", "homing phase travelled beyond its bound without a fault")
+                                .on(i)
+                                .got(d)
+                                .bound(bound)
+                        );
+                    }
+                }
+                self.home_phase = *ph;
+            }
+            _ => self.home_phase = [Phase::Idle; AXES],
+        }
+
+        // SR-25: in Operational and Homing the output changes by at most
+        // max_acceleration / tick_hz per tick; in Homing a stop to zero at
+        // the axis's switch may be immediate (a stop on a fault is the
+        // Fault state's, SR-4).
         if st == State::Operational {
             let over = first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.0001, |j| {
                 f64::from(j.max_acceleration) / hz
@@ -946,6 +1323,146 @@ impl<S: Scalar> Monitor<S> {
                     .bound(bound));
             }
         }
+        if st == State::Homing {
+            for (i, ((a, b), j)) in
+                out.act.velocity.iter().zip(self.prev_out.iter()).zip(cfg_joints(&self.cfg)).enumerate()
+            {
+                let (step, bound) = ((f(*a) - f(*b)).abs(), f64::from(j.max_acceleration) / hz);
+                let at_switch = *a == S::ZERO && sense.limits & bit(i) != 0;
+                ensure!(
+                    step <= bound * 1.0001 + 1e-6 || at_switch,
+                    fail("SR-25", "homing output stepped more than max_acceleration/tick_hz")
+                        .on(i)
+                        .got(step)
+                        .bound(bound)
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// SR-27: set-points in Operational (the set-point velocity is the
+    /// difference of consecutive set-points times `tick_hz`, computed here):
+    ///
+    /// - its change per tick is at most `dv = max_acceleration / tick_hz`
+    ///   plus the landing allowance `max(dv / 256, 1e-4)` rad/s, plus the
+    ///   rounding of the set-points themselves: 4 units in the last place
+    ///   of the larger set-point (f32; at least one I8F24 LSB) times
+    ///   `tick_hz` (1.9e-3 rad/s at |x| = 6.3, 1000 Hz; 2.4e-4 at |x| < 1);
+    /// - it never crosses the target it moves toward in a tick, and once at
+    ///   its (unchanged) target it stays there;
+    /// - it stays inside the joint limits, or between them and the
+    ///   set-point where Operational was entered (1e-5 rad plus rounding).
+    ///
+    /// Not judged: the tick Operational is entered (the set-points are
+    /// resynchronised to the estimates, at rest: the next tick's change is
+    /// judged from zero), and the acceleration of an axis given a target
+    /// inside its braking distance in its direction of motion (from its
+    /// measured set-point velocity `v`: closer than `v^2 / 2a + 2 |v| / tick_hz`):
+    /// there the acceleration bound and "never past the target" cannot
+    /// both hold; the kernel keeps the second. Such an axis is judged again
+    /// once its set-point has rested at its target for `vmax / dv + 2`
+    /// ticks (any hidden profile velocity has decayed by then); each is
+    /// counted in [`Stats::infeasible_retargets`].
+    fn check_setpoints(
+        &mut self,
+        out: &TickOutput<S>,
+        prev: State,
+        old_target: Option<[S; AXES]>,
+        target_now: Option<[S; AXES]>,
+        retargeted: bool,
+        fail: &dyn Fn(&'static str, &'static str) -> Violation,
+    ) -> Checked {
+        let sp = out.status.setpoint;
+        if out.status.state != State::Operational {
+            self.sp_vel = None;
+            self.prev_sp_static = None;
+            self.target = None;
+            self.infeasible = 0;
+            return Ok(());
+        }
+        if prev != State::Operational {
+            // Entered with the set-points resynchronised: at rest, each
+            // its own target.
+            self.sp_vel = Some([0.0; AXES]);
+            self.prev_sp_static = Some(true);
+            self.target = Some(sp);
+            self.anchor = sp.map(f);
+            self.infeasible = 0;
+            self.rest_ticks = [0; AXES];
+            return Ok(());
+        }
+        let hz = f64::from(self.cfg.tick_hz);
+        let prev_vel = self.sp_vel;
+        let mut vel = [0.0f64; AXES];
+        let mut still = true;
+        let axes = vel
+            .iter_mut()
+            .zip(sp.iter().zip(self.prev_setpoint.iter()))
+            .zip(self.cfg.joints.iter().zip(self.anchor.iter()))
+            .zip(self.rest_ticks.iter_mut());
+        for (i, (((v, (a, b)), (j, anchor)), rest)) in axes.enumerate() {
+            let (a, b) = (*a, *b);
+            let (fa, fb) = (f(a), f(b));
+            *v = (fa - fb) * hz;
+            if a == b {
+                *rest = rest.saturating_add(1);
+            } else {
+                *rest = 0;
+                still = false;
+            }
+            let amax = f64::from(j.max_acceleration);
+            let dv = amax / hz;
+            let ulp = ulp_f32(fa.abs().max(fb.abs())).max(FX_LSB);
+            let tol = 1e-5 + 2.0 * ulp;
+            let pv = prev_vel.and_then(|p| p.get(i).copied());
+            let t_new = target_now.and_then(|t| t.get(i).copied());
+            let t_old = old_target.and_then(|t| t.get(i).copied());
+            let changed = retargeted && t_new != t_old;
+            // A target inside the braking distance, ahead.
+            if let (true, Some(pv), Some(t)) = (changed, pv, t_new) {
+                let d = f(t) - fb;
+                if pv * d > 0.0 && d.abs() < pv * pv / (2.0 * amax) + 2.0 * pv.abs() / hz {
+                    if self.infeasible & bit(i) == 0 {
+                        inc(&mut self.stats.infeasible_retargets);
+                    }
+                    self.infeasible |= bit(i);
+                }
+            }
+            if let (Some(pv), false) = (pv, self.infeasible & bit(i) != 0) {
+                let bound = dv + (dv / 256.0).max(1e-4) + 4.0 * ulp * hz;
+                let change = (*v - pv).abs();
+                ensure_ok(
+                    change <= bound,
+                    fail("SR-27", "set-point velocity changed more than max_acceleration/tick_hz")
+                        .on(i)
+                        .got(change)
+                        .bound(bound),
+                )?;
+            }
+            let lo = f64::from(j.limit_min).min(*anchor) - tol;
+            let hi = f64::from(j.limit_max).max(*anchor) + tol;
+            ensure_ok(
+                fa >= lo && fa <= hi,
+                fail("SR-27", "set-point outside the joint limits").on(i).got(fa).bound(if fa < lo { lo } else { hi }),
+            )?;
+            if let Some(t) = t_new {
+                let ft = f(t);
+                let (pa, pb) = (fb - ft, fa - ft);
+                let crossed = (pa > 0.0 && pb < -tol) || (pa < 0.0 && pb > tol);
+                let left = b == t && a != t && !changed;
+                ensure_ok(
+                    !(crossed || left),
+                    fail("SR-27", "set-point passed the target it approached").on(i).got(fa).bound(ft),
+                )?;
+                if a == t && f64::from(*rest) > f64::from(j.max_velocity) / dv + 2.0 {
+                    self.infeasible &= !bit(i);
+                }
+            }
+        }
+        self.sp_vel = Some(vel);
+        self.prev_sp_static = Some(still);
+        self.target = target_now;
         Ok(())
     }
 
@@ -1000,6 +1517,38 @@ fn first_step_over<S: Scalar>(
         }
     }
     None
+}
+
+/// `Err(v)` unless `ok`.
+fn ensure_ok(ok: bool, v: Violation) -> Checked {
+    if ok {
+        Ok(())
+    } else {
+        Err(v)
+    }
+}
+
+/// One LSB of the fixed-point variant (I8F24).
+const FX_LSB: f64 = 1.0 / 16_777_216.0;
+
+/// The spacing of `f32` values at magnitude `m`.
+fn ulp_f32(m: f64) -> f64 {
+    let x = m.abs() as f32;
+    f64::from(x.next_up() - x)
+}
+
+/// SR-30's slack (rad) on the jump distance: rounding of the kernel's
+/// distances and of its bound (f32 at |x| < 16: 2e-6; I8F24: 6e-8), with
+/// a wide margin.
+pub const JUMP_SLACK: f64 = 1e-4;
+
+/// SR-30: how far a stream sample may be from the set-point (or the
+/// previous target): one longest segment at the speed limit, the braking
+/// distance from it, and the configured tolerance (rad).
+pub fn max_jump(cfg: &ArmConfig, j: &kernel::config::JointConfig) -> f64 {
+    let vmax = f64::from(j.max_velocity);
+    let seg_s = f64::from(cfg.segment_max_ms) / 1000.0;
+    vmax * seg_s + vmax * vmax / (2.0 * f64::from(j.max_acceleration)) + f64::from(cfg.target_jump_tolerance)
 }
 
 fn cfg_joints(cfg: &ArmConfig) -> core::slice::Iter<'_, kernel::config::JointConfig> {

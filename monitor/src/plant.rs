@@ -156,6 +156,18 @@ impl Plant {
         self.dead_switch = 0;
     }
 
+    /// True if nothing is injected that can move a joint off its command
+    /// or fool its estimate (a lost link and a dead switch cannot).
+    pub fn motion_clean(&self) -> bool {
+        self.encoder == [EncoderFault::None; AXES]
+            && self.glitch == [0; AXES]
+            && self.force_switch == 0
+            && self.disturbance == [0.0; AXES]
+            && self.hardware_fault.is_none()
+            && self.reversed == 0
+            && self.stalled == 0
+    }
+
     /// True if nothing is injected.
     pub fn is_clean(&self) -> bool {
         self.encoder == [EncoderFault::None; AXES]
@@ -183,6 +195,8 @@ pub struct Witness {
     rest_q: [f64; AXES],
     offsets: Option<[f64; AXES]>,
     quiet: u32,
+    disturbed: bool,
+    hand_made: Option<u64>,
 }
 
 impl Default for Witness {
@@ -201,12 +215,15 @@ impl Witness {
             rest_q: [f64::NAN; AXES],
             offsets: None,
             quiet: 0,
+            disturbed: false,
+            hand_made: None,
         }
     }
 
     /// An injection in the coming tick (a hand-made sensor value, a slip).
     pub fn injected(&mut self) {
         self.last_injection = Some(self.ticks.saturating_add(1));
+        self.hand_made = Some(self.ticks.saturating_add(1));
     }
 
     /// A tick begins: `plant` is what was sensed. Counts an injection when
@@ -221,6 +238,7 @@ impl Witness {
         let moved = plant.q != self.rest_q;
         self.rest_q = plant.q;
         let injected_now = self.last_injection.is_some_and(|i| i >= self.ticks);
+        self.disturbed = !plant.motion_clean() || slipped || self.hand_made.is_some_and(|i| i >= self.ticks);
         self.quiet = if moved || injected_now { 0 } else { self.quiet.saturating_add(1) };
     }
 
@@ -239,6 +257,8 @@ impl Witness {
                 (_, None) => true,
                 (None, Some(_)) => false,
             },
+            disturbed: self.disturbed,
+            broken_motor: (plant.reversed | plant.stalled) & 0b11_1111,
         }
     }
 }

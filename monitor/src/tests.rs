@@ -31,11 +31,23 @@ impl Rig {
         req: Option<Request<f32>>,
         tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES]),
     ) -> (TickOutput<f32>, Checked) {
+        self.tick_facts(req, tamper, |_| {})
+    }
+
+    /// One tick; `tamper` may change the output and `facts` the plant's
+    /// facts before the monitor sees them.
+    fn tick_facts(
+        &mut self,
+        req: Option<Request<f32>>,
+        tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES]),
+        tamper_facts: impl FnOnce(&mut PlantFacts),
+    ) -> (TickOutput<f32>, Checked) {
         let sense = self.plant.sense();
         self.wit.before(&self.plant);
         let sent = req.as_ref().map(Sent::of);
         let out = self.k.tick(&sense, req);
-        let facts = self.wit.after(&self.plant, &out);
+        let mut facts = self.wit.after(&self.plant, &out);
+        tamper_facts(&mut facts);
         let mut seen = out;
         let mut phases = self.k.homing_phases();
         tamper(&mut seen, &mut phases);
@@ -74,17 +86,50 @@ impl Rig {
     }
 
     fn motion(&mut self, p: [f64; AXES]) -> TickOutput<f32> {
-        let t = MotionTarget { position: p.map(|x| x as f32), velocity: [0.0; AXES], kind: kernel::MotionKind::Stream };
-        self.tick(Some(Request::Motion(t)))
+        self.tick(Some(Request::Motion(target(p, kernel::MotionKind::Stream))))
+    }
+
+    /// A stream sample `d` rad from where joint `axis` is (within a
+    /// segment's travel for |d| < 0.29 on J1): the set-point is still
+    /// moving 100 ms later when |d| is near that.
+    fn nudge(&mut self, axis: usize, d: f64) -> TickOutput<f32> {
+        let mut p = self.plant.q;
+        p[axis] += d;
+        self.motion(p)
+    }
+
+    /// Runs until the state is `s` (at most `max` ticks).
+    fn until(&mut self, s: State, max: u32) {
+        for _ in 0..max {
+            if self.k.state() == s {
+                return;
+            }
+            self.tick(None);
+        }
+        assert_eq!(self.k.state(), s);
     }
 
     /// The next tick with `tamper` must be reported against `sr`.
     fn caught(&mut self, sr: &str, tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES])) -> Violation {
-        let (_, r) = self.tick_with(None, tamper);
+        self.caught_req(sr, None, tamper)
+    }
+
+    /// The next tick, with `req` and `tamper`, must be reported against `sr`.
+    fn caught_req(
+        &mut self,
+        sr: &str,
+        req: Option<Request<f32>>,
+        tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES]),
+    ) -> Violation {
+        let (_, r) = self.tick_with(req, tamper);
         let v = r.expect_err("the tampered tick must be a violation");
         assert_eq!(v.sr, sr, "{v}");
         v
     }
+}
+
+fn target(p: [f64; AXES], kind: kernel::MotionKind) -> MotionTarget<f32> {
+    MotionTarget { position: p.map(|x| x as f32), velocity: [0.0; AXES], kind }
 }
 
 #[test]
@@ -96,15 +141,19 @@ fn a_clean_run_has_no_violation_and_is_counted() {
         r.motion(p);
         r.run(9);
     }
-    // Silence: timeout, ramp, SoftEstop; then enable.
+    // Silence with the arm at rest at its target: it holds.
+    r.run(400);
+    assert_eq!(r.k.state(), State::Operational);
+    // Silence while still moving: timeout, ramp, SoftEstop; then enable.
+    r.nudge(0, 0.28);
     r.run(400);
     assert_eq!(r.k.state(), State::SoftEstop);
     let cap = r.auth.enable();
     r.tick(Some(Request::Enable(cap)));
     assert_eq!(r.k.state(), State::Operational);
     let s = &r.mon.stats;
-    assert!(s.accepted >= 50 && s.soft_stops == 1 && s.stopped == 1 && s.enabled == 1 && s.homing_done == 1);
-    assert!(s.moving_ticks > 0);
+    assert!(s.accepted >= 51 && s.soft_stops == 1 && s.stopped == 1 && s.enabled == 1 && s.homing_done == 1, "{s:?}");
+    assert!(s.moving_ticks > 0 && s.holds == 1, "{s:?}");
 }
 
 #[test]
@@ -132,7 +181,7 @@ fn sr2_non_finite_and_too_fast_outputs_and_wrong_step_sign() {
 fn sr4_fault_tick_with_output() {
     let mut r = Rig::homed();
     let mut p = r.plant.q;
-    p[0] += 0.3;
+    p[0] += 0.25;
     r.motion(p);
     r.run(20);
     r.plant.hardware_fault = Some(kernel::HardwareFault::TickOverrun);
@@ -170,9 +219,7 @@ fn sr6_enable_that_jumps() {
 #[test]
 fn sr7_ramp_that_speeds_up() {
     let mut r = Rig::homed();
-    let mut p = r.plant.q;
-    p[0] += 0.5;
-    r.motion(p);
+    r.nudge(0, 0.28);
     for _ in 0..200 {
         if r.k.state() == State::Stopping {
             break;
@@ -260,4 +307,308 @@ fn seed_dependencies_are_the_seed_order() {
     for d in &SEED_DEPENDENCIES[..3] {
         assert_eq!(*d, bit(3) | bit(4) | bit(5));
     }
+}
+
+/// A rig moving J1 toward a sample 0.28 rad away, `n` ticks after it.
+fn moving(n: u32) -> Rig {
+    let mut r = Rig::homed();
+    r.nudge(0, 0.28);
+    r.run(n);
+    assert_eq!(r.k.state(), State::Operational);
+    r
+}
+
+/// The events of a real tick of a fork of `r`'s kernel after `f` (events
+/// cannot be built outside the kernel).
+fn events_after(r: &Rig, ticks: u32, req: Option<Request<f32>>) -> kernel::Events {
+    let (mut k, _) = r.k.fork();
+    let mut plant = r.plant.clone();
+    let mut out = k.tick(&plant.sense(), req);
+    plant.apply(&out.act.step_rate);
+    for _ in 0..ticks {
+        out = k.tick(&plant.sense(), None);
+        plant.apply(&out.act.step_rate);
+    }
+    out.events
+}
+
+#[test]
+fn sr27_setpoint_velocity_step() {
+    let mut r = moving(30);
+    // 1 mrad more in one tick: within vmax/tick_hz (SR-18) but a velocity
+    // change of 1 rad/s.
+    let v = r.caught("SR-27", |o, _| o.status.setpoint[0] += 0.001);
+    assert_eq!(v.axis, Some(0));
+    assert!(v.to_string().contains("velocity changed"), "{v}");
+}
+
+#[test]
+fn sr27_setpoint_that_leaves_its_target() {
+    let mut r = Rig::homed();
+    r.run(5);
+    // At rest at its target: one 10 um step away is within every
+    // acceleration bound but leaves the target.
+    let v = r.caught("SR-27", |o, _| o.status.setpoint[2] += 1e-5 * 2.0);
+    assert_eq!(v.axis, Some(2));
+    assert!(v.to_string().contains("passed the target"), "{v}");
+}
+
+#[test]
+fn sr27_setpoint_outside_the_limits() {
+    let mut r = Rig::homed();
+    // A go-to to exactly the limit of J1, then a set-point 1 mrad past it.
+    let mut p = r.plant.q;
+    p[0] = f64::from(PAROL6.joints[0].limit_max);
+    r.tick(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))));
+    r.run(2000);
+    assert_eq!(r.k.state(), State::Operational);
+    let v = r.caught("SR-27", |o, _| o.status.setpoint[0] = PAROL6.joints[0].limit_max + 2e-5);
+    assert!(v.to_string().contains("outside the joint limits") || v.to_string().contains("passed"), "{v}");
+}
+
+#[test]
+fn sr29_holding_while_moving_and_latching_at_rest() {
+    // Holding at the timeout while the set-point still moves.
+    let mut r = moving(0);
+    let timeout = ms_to_ticks(PAROL6.command_timeout_ms, PAROL6.tick_hz);
+    let hold = {
+        let mut h = Rig::homed();
+        h.nudge(0, 0.01);
+        h.run(timeout - 1);
+        events_after(&h, 0, None)
+    };
+    assert!(hold.iter().any(|e| *e == Event::Holding), "{hold:?}");
+    r.run(timeout - 2);
+    let v = r.caught("SR-29", |o, _| {
+        o.events = hold;
+        o.status.state = State::Operational;
+        o.status.timeout_armed = false;
+    });
+    assert!(v.to_string().contains("still moves"), "{v}");
+    // A latch at the timeout of an arm at rest at its target.
+    let mut h = Rig::homed();
+    h.nudge(0, 0.01);
+    h.run(timeout - 1);
+    let stop = {
+        let mut m = moving(0);
+        m.run(timeout - 2);
+        events_after(&m, 0, None)
+    };
+    assert!(stop.iter().any(|e| matches!(e, Event::SoftEstop { .. })), "{stop:?}");
+    let v = h.caught("SR-29", |o, _| {
+        o.events = stop;
+        o.status.state = State::Stopping;
+    });
+    assert!(v.to_string().contains("at rest"), "{v}");
+}
+
+#[test]
+fn sr5_home_accepted_while_latched() {
+    let mut r = moving(0);
+    r.run(400);
+    assert_eq!(r.k.state(), State::SoftEstop);
+    let quiet = events_after(&r, 0, None);
+    assert!(quiet.is_empty());
+    // The kernel refuses it (Latched); the tampered tick drops the refusal.
+    let v = r.caught_req("SR-5", Some(Request::Home), |o, _| o.events = quiet);
+    assert!(v.to_string().contains("HOME accepted"), "{v}");
+    // And leaving SoftEstop for Homing on a HOME is no longer an exit.
+    let started = {
+        let mut h = Rig::new();
+        h.run(3);
+        events_after(&h, 0, Some(Request::Home))
+    };
+    r.caught_req("SR-5", Some(Request::Home), |o, _| {
+        o.events = started;
+        o.status.state = State::Homing;
+    });
+}
+
+#[test]
+fn sr7_homing_after_a_latching_stop_and_home_without_a_stop() {
+    // A timeout ramp (no HOME pending) may not end in Homing.
+    let mut r = moving(0);
+    r.until(State::Stopping, 200);
+    let n = ms_to_ticks(PAROL6.soft_stop_ms, PAROL6.tick_hz);
+    r.run(n - 2);
+    assert_eq!(r.k.state(), State::Stopping);
+    let started = {
+        let mut h = Rig::new();
+        h.run(3);
+        events_after(&h, 0, Some(Request::Home))
+    };
+    let v = r.caught("SR-7", |o, _| {
+        o.events = started;
+        o.status.state = State::Homing;
+    });
+    assert!(v.to_string().contains("pending HOME"), "{v}");
+    // HOME while moving must stop first (HomingAfterStop), not home at once.
+    let mut r = moving(30);
+    let v = r.caught_req("SR-7", Some(Request::Home), |o, _| {
+        o.events = started;
+        o.status.state = State::Homing;
+        o.act.velocity = [0.0; AXES];
+        o.act.step_rate = [0; AXES];
+    });
+    assert!(v.to_string().contains("without a stop first"), "{v}");
+}
+
+#[test]
+fn home_while_moving_stops_then_homes_cleanly() {
+    let mut r = moving(30);
+    let out = r.tick(Some(Request::Home));
+    assert!(out.events.iter().any(|e| *e == Event::HomingAfterStop), "{:?}", out.events);
+    assert_eq!(out.status.state, State::Stopping);
+    r.until(State::Homing, 200);
+    r.until(State::Operational, 60_000);
+    assert_eq!(r.mon.stats.homes_after_stop, 1);
+}
+
+#[test]
+fn sr8_goto_that_arms_the_timeout() {
+    let mut r = Rig::homed();
+    let mut p = r.plant.q;
+    p[3] += 1.0;
+    let (_, res) = r.tick_with(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))), |o, _| {
+        o.status.timeout_armed = true;
+    });
+    let v = res.expect_err("an armed go-to");
+    assert_eq!(v.sr, "SR-8", "{v}");
+}
+
+#[test]
+fn sr30_far_stream_sample_accepted_and_near_one_refused() {
+    let mut r = Rig::homed();
+    let quiet = events_after(&r, 0, None);
+    let mut p = r.plant.q;
+    p[0] += 0.5; // beyond 3 * 0.04 + 0.15 + 0.02 = 0.29 rad
+    let far = Request::Motion(target(p, kernel::MotionKind::Stream));
+    let v = r.caught_req("SR-30", Some(far), |o, _| {
+        o.events = quiet;
+        o.status.timeout_armed = true;
+    });
+    assert_eq!(v.axis, Some(0));
+    let mut r = Rig::homed();
+    let mut p = r.plant.q;
+    p[0] += 0.5;
+    let refused = events_after(&r, 0, Some(Request::Motion(target(p, kernel::MotionKind::Stream))));
+    assert!(refused.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::TargetJump { axis: 0 }, .. })));
+    let mut p = r.plant.q;
+    p[0] += 0.1;
+    let near = Request::Motion(target(p, kernel::MotionKind::Stream));
+    let v = r.caught_req("SR-30", Some(near), |o, _| {
+        o.events = refused;
+        o.status.timeout_armed = false;
+    });
+    assert!(v.to_string().contains("refused as a jump"), "{v}");
+    // A go-to far away is fine (the kernel's own answer).
+    let mut r = Rig::homed();
+    let mut p = r.plant.q;
+    p[0] += 1.0;
+    r.tick(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))));
+    r.run(1500);
+    assert!((r.plant.q[0] - p[0]).abs() < 0.01, "{:?}", r.plant.q);
+    assert!(r.mon.stats.goto_accepted == 1);
+}
+
+#[test]
+fn sr31_link_lost_while_moving_without_a_stop() {
+    let mut r = moving(20);
+    r.plant.link_lost = true;
+    let quiet = events_after(&Rig::homed(), 0, None);
+    let v = r.caught("SR-31", |o, _| {
+        o.events = quiet;
+        o.status.state = State::Operational;
+    });
+    assert!(v.to_string().contains("without a soft stop"), "{v}");
+    // At rest a lost link holds; moving, it stops at once.
+    let mut r = Rig::homed();
+    r.plant.link_lost = true;
+    r.run(20);
+    assert_eq!(r.k.state(), State::Operational);
+    r.plant.link_lost = false;
+    r.nudge(0, 0.2);
+    r.run(10);
+    r.plant.link_lost = true;
+    let out = r.tick(None);
+    assert_eq!(out.status.state, State::Stopping);
+    assert_eq!(r.mon.stats.link_stops, 1);
+}
+
+#[test]
+fn sr25_homing_output_step() {
+    let mut r = Rig::new();
+    r.run(3);
+    r.tick(Some(Request::Home));
+    r.run(20);
+    assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
+    let v = r.caught("SR-25", |o, _| o.act.velocity[5] += 0.5);
+    assert_eq!(v.axis, Some(5));
+}
+
+#[test]
+fn sr28_homing_travel_beyond_its_bound() {
+    let mut r = Rig::new();
+    r.run(3);
+    r.tick(Some(Request::Home));
+    r.run(20);
+    assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
+    let v = r.caught("SR-28", |o, _| o.status.position[5] += PAROL6.joints[5].homing.max_travel + 0.01);
+    assert_eq!(v.axis, Some(5));
+}
+
+#[test]
+fn sr28_following_error_on_a_clean_plant_and_a_stall_without_one() {
+    // A real following-error fault (J1 stalled, commanded to move).
+    let (fe_events, fe_fault) = {
+        let mut h = Rig::homed();
+        h.plant.stalled = 1;
+        h.nudge(0, 0.2);
+        let mut found = None;
+        for _ in 0..200 {
+            let out = h.tick(None);
+            if out.status.state == State::Fault {
+                found = Some((out.events, out.status.fault));
+                break;
+            }
+        }
+        found.expect("a stalled J1 faults")
+    };
+    assert!(matches!(fe_fault, Some(Fault { reason: FaultReason::FollowingError { axis: 0 }, .. })), "{fe_fault:?}");
+    let mut r = Rig::homed();
+    let v = r.caught("SR-28", |o, _| {
+        o.events = fe_events;
+        o.status.fault = fe_fault;
+        o.status.state = State::Fault;
+        o.act.velocity = [0.0; AXES];
+        o.act.step_rate = [0; AXES];
+    });
+    assert!(v.to_string().contains("nothing injected"), "{v}");
+    // A stalled joint whose set-point runs away from it, and no fault.
+    let mut r = Rig::homed();
+    let limit = ms_to_ticks(PAROL6.following_error_ms, PAROL6.tick_hz) + FE_LIVENESS_SLACK.1;
+    let mut res = Ok(());
+    for _ in 0..=limit {
+        let (_, c) = r.tick_facts(
+            None,
+            |_, _| {},
+            |f| {
+                f.broken_motor = 1;
+                f.q[0] += 0.1;
+            },
+        );
+        res = res.and(c);
+    }
+    let v = res.expect_err("a stall without a fault");
+    assert_eq!((v.sr, v.axis), ("SR-28", Some(0)), "{v}");
+}
+
+#[test]
+fn sr19_joint_beyond_the_overrun_bound_on_a_clean_plant() {
+    let mut r = Rig::homed();
+    let j = PAROL6.joints[2];
+    let beyond = f64::from(j.limit_max + PAROL6.overrun_bound(&j)) + 0.01;
+    let (_, res) = r.tick_facts(None, |_, _| {}, |f| f.q[2] = beyond);
+    let v = res.expect_err("beyond the overrun bound");
+    assert_eq!((v.sr, v.axis), ("SR-19", Some(2)), "{v}");
 }
