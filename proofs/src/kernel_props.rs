@@ -1,7 +1,7 @@
 //! Whole-kernel properties: one or a few ticks of the real `Kernel::tick`
 //! from states reached through the public API (see `setup`).
 
-use crate::numeric::any_target;
+use crate::numeric::{any_mostly_in, any_target};
 use crate::setup::{here, operational, still, target, Checked, Sym, COUNTS, PROOF_CONFIG};
 use kernel::config::AXES;
 use kernel::{EncoderSample, Event, Fx, HardwareFault, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput};
@@ -121,45 +121,63 @@ fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
     from_power_on::<Fx>();
 }
 
-/// SR-7, SR-8: after one accepted target, silence: the timeout starts the
-/// ramp, speeds never increase nor reverse, every axis reaches exactly zero
-/// within the ramp, and the stop latches.
+/// SR-7, SR-8, SR-29: after one accepted stream sample near the set-point,
+/// silence: if a set-point still moves when the timeout expires, the ramp
+/// starts (speeds never increase nor reverse, every axis exactly zero within
+/// the ramp) and the stop latches; if every joint is already at rest at its
+/// target, it holds (no latch) and the next command is taken.
 fn soft_stop<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let p = here(&mut k);
     // No timeout before the first command (SR-8): the setup ran many ticks.
     assert!(k.state() == State::Operational);
-    let mut t = any_target::<S>();
-    // Keep targets valid so the command is accepted and the arm moves.
+    let mut t = target(p);
+    // A sample within 0.1 rad of the set-point and inside the limits: a
+    // valid stream sample (never a TARGET_JUMP); or exactly the set-point.
+    let still_target: bool = kani::any();
     for i in 0..AXES {
-        let j = &PROOF_CONFIG.joints[i];
-        t.position[i] = t.position[i].clamp_between(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
-        t.velocity[i] = S::ZERO;
-        if !t.position[i].is_finite() {
-            t.position[i] = p[i];
+        if still_target {
+            break;
         }
+        let j = &PROOF_CONFIG.joints[i];
+        let d = any_mostly_in(S::from_f32(-0.1), S::from_f32(0.1));
+        let d = if d.is_finite() { d.clamp_between(S::from_f32(-0.1), S::from_f32(0.1)) } else { S::ZERO };
+        t.position[i] = p[i].plus(d).clamp_between(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
     }
     let o = k.tick(&still(0), Some(Request::Motion(t)));
-    assert!(o.status.timeout_armed);
-    kani::cover!(o.act.velocity.iter().any(|v| *v != S::ZERO), "moving when the commands stop");
+    assert!(o.status.timeout_armed, "{:?} {:?}", o.events, t);
     // Timeout 3 ticks + ramp 4 ticks + margin: 12 ticks (loop bound). The
     // monitor checks the ramp on every tick (SR-7: starts exactly at the
     // timeout, never faster, never reversed, at most vmax/N per tick,
-    // exactly N ticks to zero).
+    // exactly N ticks to zero) and the hold (SR-29).
     let mut stopped_at = None;
+    let mut held = false;
     for n in 0..12u32 {
         let o = k.tick(&still(0), None);
         if o.status.state == State::SoftEstop && stopped_at.is_none() {
             stopped_at = Some(n);
             assert!(all_zero(&o));
         }
+        held |= o.events.iter().any(|e| *e == Event::Holding);
     }
-    // 3 ticks of timeout + 4 of ramp, counted from the command's tick.
-    assert!(matches!(stopped_at, Some(n) if n <= 8));
-    assert!(k.state() == State::SoftEstop);
-    // Latched: motion refused.
-    let o = k.tick(&still(0), Some(Request::Motion(target(p))));
-    assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Latched, .. })));
+    kani::cover!(held, "at rest at the timeout: holds");
+    kani::cover!(stopped_at.is_some(), "moving at the timeout: latches");
+    if held {
+        assert!(k.state() == State::Operational && stopped_at.is_none());
+        // The next command is taken without <ENABLE>.
+        let o = k.tick(&still(0), Some(Request::Motion(target(p))));
+        assert!(o.events.iter().all(|e| !matches!(e, Event::Rejected { .. })));
+    } else {
+        // 3 ticks of timeout + 4 of ramp, counted from the command's tick.
+        assert!(matches!(stopped_at, Some(n) if n <= 8));
+        assert!(k.state() == State::SoftEstop);
+        // Latched: motion and <HOME> refused.
+        let o = k.tick(&still(0), Some(Request::Motion(target(p))));
+        assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Latched, .. })));
+        let o = k.tick(&still(0), Some(Request::Home));
+        assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Latched, .. })));
+        assert!(k.state() == State::SoftEstop);
+    }
 }
 
 #[kani::proof]

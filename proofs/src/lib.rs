@@ -20,6 +20,8 @@ pub mod setup;
 #[cfg(any(kani, test))]
 mod kernel_props;
 #[cfg(any(kani, test))]
+mod motion_props;
+#[cfg(any(kani, test))]
 mod numeric;
 #[cfg(any(kani, test))]
 mod wire;

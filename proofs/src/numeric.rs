@@ -178,8 +178,11 @@ fn interpolator<S: Sym>() {
     let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
     assert!(vel2.abs() <= k.vmax.plus(slack), "speed above the limit");
     assert!(vel2.minus(vel).abs() <= k.dv.plus(slack), "acceleration above the limit");
-    let toward = (to >= sp && vel2 >= S::ZERO) || (to <= sp && vel2 <= S::ZERO);
-    if toward {
+    // Approaching: moving toward the target, or at rest on it. (A set-point
+    // moving away from a target that was moved behind it decelerates
+    // through it: that overshoot is inside the earlier target's braking.)
+    let approaching = (to > sp && vel >= S::ZERO) || (to < sp && vel <= S::ZERO) || (to == sp && vel == S::ZERO);
+    if approaching {
         kani::cover!(sp2 == to, "lands exactly");
         assert!(sp2.minus(sp).abs() <= to.minus(sp).abs(), "passed the target");
     }

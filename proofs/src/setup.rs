@@ -18,18 +18,28 @@ use kernel::homing::Phase;
 use kernel::{Authority, EncoderSample, Kernel, MotionKind, MotionTarget, Request, Scalar, Sense, State, TickOutput};
 use monitor::{Monitor, Sent};
 
-/// `PAROL6` with zero homing back-off, and timeouts short enough for a
-/// harness: command timeout 3 ms, soft-stop ramp 4 ms, homing 40 ms per axis.
+/// `PAROL6` with zero homing back-off, switches 0.01 rad inside the limits,
+/// and times short enough for a harness: command timeout 3 ms, soft-stop
+/// ramp 4 ms, homing 40 ms per axis, homing settle 1 ms.
 pub const PROOF_CONFIG: ArmConfig = {
     let mut c = PAROL6;
     let mut i = 0;
     while i < AXES {
         c.joints[i].homing.backoff = 0.0;
         c.joints[i].homing.timeout_ms = 40;
+        // The switch 0.01 rad inside the limit it guards, so the stationary
+        // arm homes inside its limits (every position it reports is a
+        // valid target).
+        let j = &c.joints[i];
+        c.joints[i].homing.switch_position = match j.homing.direction {
+            kernel::config::Direction::Positive => j.limit_max - 0.01,
+            kernel::config::Direction::Negative => j.limit_min + 0.01,
+        };
         i += 1;
     }
     c.command_timeout_ms = 3;
     c.soft_stop_ms = 4;
+    c.homing_settle_ms = 1;
     c
 };
 
