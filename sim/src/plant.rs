@@ -55,6 +55,8 @@ struct Axis {
     lost_fraction: f64,
     disturbance: f64,
     force_switch: Option<bool>,
+    /// The driver's DIR input is inverted (wiring fault).
+    dir_inverted: bool,
     encoder: Encoder,
 }
 
@@ -83,6 +85,7 @@ impl Plant {
                 lost_fraction: 0.0,
                 disturbance: 0.0,
                 force_switch: None,
+                dir_inverted: false,
                 encoder: Encoder::new(rng.uniform(), opts.clock_ppm[i], opts.noise_counts),
             })
             .collect();
@@ -161,7 +164,7 @@ impl Plant {
             let steps = a.step_acc.trunc();
             a.step_acc -= steps;
             let kept = steps * (1.0 - a.lost_fraction);
-            let dir = if j.motor_reversed { -1.0 } else { 1.0 };
+            let dir = if j.motor_reversed != a.dir_inverted { -1.0 } else { 1.0 };
             a.q_prev = a.q;
             a.q += dir * kept / spr + a.disturbance * dt;
         }
@@ -183,6 +186,11 @@ impl Plant {
     /// Fault injection: a velocity not commanded (rad/s), e.g. a runaway.
     pub fn set_disturbance(&mut self, i: usize, v: f64) {
         self.axes[i].disturbance = v;
+    }
+    /// Fault injection: the DIR signal of axis `i` inverted (`true`) or
+    /// normal: every step then turns the motor the other way.
+    pub fn set_dir_inverted(&mut self, i: usize, inverted: bool) {
+        self.axes[i].dir_inverted = inverted;
     }
     /// Fault injection: a fraction of steps lost.
     pub fn set_lost_steps(&mut self, i: usize, fraction: f64) {

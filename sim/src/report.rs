@@ -60,7 +60,8 @@ pub struct Report {
     /// Tracking error against the host's continuous reference (includes the
     /// one-segment interpolation delay).
     pub tracking_ref: [JointError; AXES],
-    /// Largest commanded acceleration per joint while OPERATIONAL (rad/s^2).
+    /// Largest commanded acceleration per joint in every state, the fault
+    /// tick and homing's switch stops excepted (rad/s^2).
     pub max_accel: [f64; AXES],
     /// (last command of a burst, ms to standstill).
     pub stops: Vec<(u64, Option<u64>)>,
@@ -90,6 +91,8 @@ pub struct Report {
     pub bytes_in: u64,
     /// Motion commands accepted by the kernel.
     pub commands_accepted: u64,
+    /// Accepted motion targets (ms, positions).
+    pub targets: Vec<(u64, [f32; AXES])>,
     /// Lines sent (ms, line), for the log.
     pub lines: Vec<(u64, String)>,
     /// The per-tick trace.
@@ -154,10 +157,10 @@ impl Report {
         let acc: Vec<String> = self.max_accel.iter().enumerate().map(|(i, a)| format!("J{} {a:.0}", i + 1)).collect();
         let _ = writeln!(
             s,
-            "largest commanded acceleration while OPERATIONAL (rad/s^2, velocity change per tick x tick rate): {}",
+            "largest commanded acceleration, every state (rad/s^2, velocity change per tick x tick rate; fault ticks and homing's stops at a switch excluded): {}",
             acc.join(", ")
         );
-        let _ = writeln!(s, "\nlast command to standstill (all step rates zero):");
+        let _ = writeln!(s, "\nlast command to standstill (every commanded speed below 0.01 rad/s):");
         if self.stops.is_empty() {
             let _ = writeln!(s, "  (no command burst)");
         }

@@ -13,7 +13,7 @@ use crate::client::{configurator_line, driver_line, driver_view};
 use crate::plant::PlantOptions;
 use crate::report::{JointError, Report};
 use crate::root::{Root, Step};
-use crate::scenario::{Action, Anchor, Client, Expect, Motion, Scenario};
+use crate::scenario::{Action, Anchor, Client, Expect, Motion, Scenario, When};
 
 /// Options for a run.
 #[derive(Clone, Debug, Default)]
@@ -38,7 +38,7 @@ pub struct Sample {
     pub sp: [f32; AXES],
     /// Commanded velocity (rad/s).
     pub v: [f32; AXES],
-    /// All outputs zero.
+    /// Every commanded speed below [`STILL_SPEED`] (standstill or holding).
     pub still: bool,
     /// A motion command was accepted this tick.
     pub accepted: bool,
@@ -98,6 +98,26 @@ impl Hosts {
     }
 }
 
+/// Standstill: every commanded speed below this (rad/s). A joint holding its
+/// target is servoed: its encoder noise makes the command dither by a few
+/// mrad/s, which is not motion.
+pub const STILL_SPEED: f32 = 0.01;
+
+/// The change of joint `i`'s commanded velocity from `a` to `b` (rad/s per
+/// tick), or `None` where no acceleration limit applies: the tick a fault
+/// zeroes every output, and homing's stop at a switch (an axis's output
+/// becoming exactly zero in Homing; decision 3 lets that stop be
+/// instantaneous).
+pub fn accel_step(a: &Sample, b: &Sample, i: usize) -> Option<f64> {
+    if b.state == State::Fault && a.state != State::Fault {
+        return None;
+    }
+    if b.state == State::Homing && b.v[i] == 0.0 {
+        return None;
+    }
+    Some((f64::from(b.v[i]) - f64::from(a.v[i])).abs())
+}
+
 /// Short text of a fault reason, for the report.
 pub fn fault_text(r: &FaultReason) -> String {
     match *r {
@@ -133,17 +153,25 @@ fn fault_matches(kind: &str, joint: Option<usize>, r: &FaultReason) -> bool {
 
 /// The simulator's per-tick safety check: the project's one safety monitor
 /// (`monitor`, written from SAFETY.md) on what the kernel sensed, was sent
-/// and returned, plus the wire checks only the simulator can make (no
+/// and returned; the output's acceleration in every state (decisions 1 and
+/// 3 of issue 12: Operational, Stopping and Homing alike; only the tick a
+/// fault zeroes the outputs and homing's stop at a switch are exempt, see
+/// [`accel_step`]); plus the wire checks only the simulator can make (no
 /// `nan`/`inf`, printable bytes, every `<` line readable by its client).
 #[derive(Clone, Debug)]
 pub struct TickChecker {
     monitor: Monitor<f32>,
+    /// Largest velocity change per tick of each joint (rad/s), 1 % slack.
+    dv_max: [f64; AXES],
+    prev: Option<Sample>,
 }
 
 impl TickChecker {
     /// A checker for a kernel on `cfg`, created with it.
     pub fn new(cfg: &Validated) -> Self {
-        TickChecker { monitor: Monitor::new(cfg.config()) }
+        let c = cfg.config();
+        let dv_max = c.joints.map(|j| f64::from(j.max_acceleration) / f64::from(c.tick_hz) * 1.01 + 1e-6);
+        TickChecker { monitor: Monitor::new(c), dv_max, prev: None }
     }
 
     /// Checks one step (call for every step, in order); returns the
@@ -157,6 +185,33 @@ impl TickChecker {
         if let Err(v) = self.monitor.check(&step.sense, sent.as_ref(), &step.out, Some(&step.phases), None) {
             bad.push(v.to_string());
         }
+        let now = Sample {
+            t: step.t_ms,
+            state: step.out.status.state,
+            q: [0.0; AXES],
+            est: step.out.status.position,
+            sp: step.out.status.setpoint,
+            v: step.out.act.velocity,
+            still: false,
+            accepted: false,
+            request_ok: false,
+            reference: [f32::NAN; AXES],
+        };
+        if let Some(prev) = &self.prev {
+            for (i, lim) in self.dv_max.iter().enumerate() {
+                if let Some(dv) = accel_step(prev, &now, i) {
+                    if dv > *lim {
+                        bad.push(format!(
+                            "acceleration: J{} output changed by {dv:.4} rad/s in one tick (limit {lim:.4}), {:?} -> {:?}",
+                            i + 1,
+                            prev.state,
+                            now.state
+                        ));
+                    }
+                }
+            }
+        }
+        self.prev = Some(now);
         for l in &step.lines {
             let low = l.to_ascii_lowercase();
             if low.contains("nan") || low.contains("inf") {
@@ -260,12 +315,21 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                         input.extend_from_slice(l.as_bytes());
                     }
                 }
-                Action::Cable(c) => hosts.cable = *c,
+                Action::Cable(c) => {
+                    hosts.cable = *c;
+                    // Over USB the host sees the port close when the cable
+                    // goes (and the firmware's main loop tells the kernel the
+                    // link is lost); a UART cannot tell.
+                    if !opts.serial1 {
+                        root.port.open = *c;
+                    }
+                }
                 Action::Glitch { joint, offset, frames } => root.board.plant.glitch(*joint, *offset, *frames),
                 Action::Encoder(j, line) => root.board.plant.set_line(*j, *line),
                 Action::Switch(j, f) => root.board.plant.force_switch(*j, *f),
                 Action::Runaway(j, v) => root.board.plant.set_disturbance(*j, *v),
                 Action::LostSteps(j, f) => root.board.plant.set_lost_steps(*j, *f),
+                Action::ReverseDir(j, on) => root.board.plant.set_dir_inverted(*j, *on),
                 Action::Noise(n) => root.board.plant.set_noise(*n),
             }
         }
@@ -321,7 +385,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             est: out.status.position,
             sp: out.status.setpoint,
             v: out.act.velocity,
-            still: out.act.step_rate.iter().all(|r| *r == 0),
+            still: out.act.velocity.iter().all(|v| v.abs() < STILL_SPEED),
             accepted,
             request_ok: step.request.is_some() && !out.events.iter().any(|e| matches!(e, Event::Rejected { .. })),
             reference,
@@ -393,13 +457,13 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     // (Operational, a motion accepted within the last 50 ms).
     let mut err = [JointError::default(); AXES];
     let mut err_ref = [JointError::default(); AXES];
-    // Largest commanded acceleration per joint while Operational (rad/s^2).
+    // Largest commanded acceleration per joint in every state (rad/s^2),
+    // except where no limit applies (`accel_step`).
     let mut accel = [0.0f64; AXES];
     for w in trace.windows(2) {
-        if w[1].state == State::Operational {
-            for (i, a) in accel.iter_mut().enumerate() {
-                let dv = (f64::from(w[1].v[i]) - f64::from(w[0].v[i])).abs() * f64::from(cfg.config().tick_hz);
-                *a = a.max(dv);
+        for (i, a) in accel.iter_mut().enumerate() {
+            if let Some(dv) = accel_step(&w[0], &w[1], i) {
+                *a = a.max(dv * f64::from(cfg.config().tick_hz));
             }
         }
     }
@@ -461,7 +525,13 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     // Expectations.
     let state_at = |at: u64| trace.iter().find(|s| s.t >= at).map(|s| s.state);
     let mut expectations = Vec::new();
-    for e in &sc.expects {
+    let cfgc = cfg.config();
+    let window = |w: &When| w.resolve(&occ);
+    for outer in &sc.expects {
+        let (pending, e) = match outer {
+            Expect::Pending(inner) => (true, inner.as_ref()),
+            e => (false, e),
+        };
         let (ok, detail) = match e {
             Expect::NoFault => (faults.is_empty(), format!("{} fault(s)", faults.len())),
             Expect::Fault(kind, j) => {
@@ -527,8 +597,157 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                     (m.is_some(), m.map(|s| format!("moving at {} ms", s.t)).unwrap_or("never moved".into()))
                 }
             },
+            Expect::FaultWithin(w, ms, kind, j) => match window(w) {
+                None => (false, format!("{w} never happened")),
+                Some(at) => {
+                    let hit = faults
+                        .iter()
+                        .zip(fault_reasons.iter())
+                        .find(|((ft, _), r)| *ft >= at && *ft <= at + ms && fault_matches(kind, *j, r));
+                    match hit {
+                        Some(((ft, txt), _)) => (true, format!("{txt} at {ft} ms ({} ms after {at} ms)", ft - at)),
+                        None => (
+                            false,
+                            if faults.is_empty() {
+                                "no fault".into()
+                            } else {
+                                faults.iter().map(|(t, f)| format!("{f} at {t} ms")).collect::<Vec<_>>().join("; ")
+                            },
+                        ),
+                    }
+                }
+            },
+            Expect::LineWithin(w, ms, text) => match window(w) {
+                None => (false, format!("{w} never happened")),
+                Some(at) => {
+                    let hit = all_lines.iter().find(|(t, l)| *t >= at && *t <= at + ms && l.contains(text.as_str()));
+                    match hit {
+                        Some((t, l)) => (true, format!("at {t} ms ({} ms after {at} ms): {}", t - at, l.trim_end())),
+                        None => {
+                            let later = all_lines.iter().find(|(t, l)| *t >= at && l.contains(text.as_str()));
+                            (false, later.map(|(t, _)| format!("first at {t} ms")).unwrap_or("not found".into()))
+                        }
+                    }
+                }
+            },
+            Expect::LineSequence(texts) => {
+                let mut from = 0usize;
+                let mut found = Vec::new();
+                for text in texts {
+                    match all_lines.iter().enumerate().skip(from).find(|(_, (_, l))| l.contains(text.as_str())) {
+                        Some((k, (t, _))) => {
+                            found.push(format!("{text:?} at {t} ms"));
+                            from = k + 1;
+                        }
+                        None => {
+                            found.push(format!("{text:?} not found after that"));
+                            break;
+                        }
+                    }
+                }
+                (found.len() == texts.len() && !found.iter().any(|f| f.ends_with("after that")), found.join(", "))
+            }
+            Expect::WrongWayBelow(j, bound) => {
+                let mut wrong = 0.0f64;
+                let mut worst_at = None;
+                for w in trace.windows(2) {
+                    let dq = f64::from(w[1].q[*j]) - f64::from(w[0].q[*j]);
+                    let v = f64::from(w[1].v[*j]);
+                    if dq * v < 0.0 {
+                        wrong += dq.abs();
+                        worst_at = Some(w[1].t);
+                    }
+                }
+                let last = worst_at.map(|t| format!(", last at {t} ms")).unwrap_or_default();
+                (wrong < *bound, format!("{wrong:.4} rad against the command{last}"))
+            }
+            Expect::ExcursionBelow(j, w, bound) => match window(w) {
+                None => (false, format!("{w} never happened")),
+                Some(at) => match trace.iter().find(|s| s.t >= at) {
+                    None => (false, "no sample".into()),
+                    Some(s0) => {
+                        let q0 = f64::from(s0.q[*j]);
+                        let (d, t) = trace
+                            .iter()
+                            .filter(|s| s.t >= at)
+                            .map(|s| ((f64::from(s.q[*j]) - q0).abs(), s.t))
+                            .fold((0.0, at), |a, b| if b.0 > a.0 { b } else { a });
+                        (d < *bound, format!("largest {d:.4} rad (at {t} ms) from {q0:.4} rad at {at} ms"))
+                    }
+                },
+            },
+            Expect::StillBetween(a, b) => match (window(a), window(b)) {
+                (Some(a), Some(b)) => {
+                    let m = trace.iter().find(|s| s.t >= a && s.t <= b && !s.still);
+                    (
+                        m.is_none(),
+                        m.map(|s| {
+                            let (i, v) =
+                                s.v.iter()
+                                    .enumerate()
+                                    .fold((0, 0.0f32), |m, (i, v)| if v.abs() > m.1.abs() { (i, *v) } else { m });
+                            format!("moving at {} ms (J{} {v:.3} rad/s)", s.t, i + 1)
+                        })
+                        .unwrap_or(format!("still from {a} to {b} ms")),
+                    )
+                }
+                _ => (false, format!("{a} or {b} never happened")),
+            },
+            Expect::AtTargetWithin(w, bound) => match window(w) {
+                None => (false, format!("{w} never happened")),
+                Some(at) => {
+                    let tg = targets.iter().rev().find(|(ta, _)| *ta <= at);
+                    let s = trace.iter().find(|s| s.t >= at.min(t.saturating_sub(1)));
+                    match (tg, s) {
+                        (Some((ta, tg)), Some(s)) => {
+                            let (i, d) = (0..AXES)
+                                .map(|i| (i, (f64::from(tg[i]) - f64::from(s.q[i])).abs()))
+                                .fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+                            (
+                                d < *bound,
+                                format!("worst J{} {d:.4} rad at {} ms (target accepted at {ta} ms)", i + 1, s.t),
+                            )
+                        }
+                        _ => (false, "no target accepted by then".into()),
+                    }
+                }
+            },
+            Expect::AccelWithinLimits(a, b) => match (window(a), window(b)) {
+                (Some(a), Some(b)) => {
+                    let mut worst: Option<(f64, usize, u64)> = None;
+                    let mut bad: Option<(f64, usize, u64)> = None;
+                    for w in trace.windows(2).filter(|w| w[1].t > a && w[1].t <= b) {
+                        for i in 0..AXES {
+                            let Some(dv) = accel_step(&w[0], &w[1], i) else { continue };
+                            let lim = f64::from(cfgc.joints[i].max_acceleration) / f64::from(cfgc.tick_hz);
+                            let ratio = dv / lim;
+                            if worst.is_none_or(|x| ratio > x.0) {
+                                worst = Some((ratio, i, w[1].t));
+                            }
+                            if ratio > 1.01 && bad.is_none() {
+                                bad = Some((ratio, i, w[1].t));
+                            }
+                        }
+                    }
+                    let show =
+                        |x: (f64, usize, u64)| format!("{:.0} % of J{}'s limit at {} ms", x.0 * 100.0, x.1 + 1, x.2);
+                    match (bad, worst) {
+                        (Some(x), _) => (false, format!("first over: {}", show(x))),
+                        (None, Some(x)) => (true, format!("largest {}", show(x))),
+                        (None, None) => (false, "empty window".into()),
+                    }
+                }
+                _ => (false, format!("{a} or {b} never happened")),
+            },
+            Expect::Pending(_) => (false, "`pending` does not nest".into()),
         };
-        expectations.push((e.to_string(), ok, detail));
+        if pending {
+            let verdict =
+                if ok { "now HOLDS: remove `pending`" } else { "fails, as the reported kernel defect predicts" };
+            expectations.push((outer.to_string(), true, format!("{verdict}; {detail}")));
+        } else {
+            expectations.push((e.to_string(), ok, detail));
+        }
     }
 
     Report {
@@ -560,6 +779,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         lines_sent,
         bytes_in,
         commands_accepted: acc.len() as u64,
+        targets,
         lines: all_lines,
         trace,
         plot: None,
