@@ -150,7 +150,7 @@ impl JointConfig {
         self.jump_window_counts(tick_hz, 1)
     }
     /// Nominal time (ms) homing needs at these speeds, over the whole range.
-    pub const fn homing_nominal_ms(&self) -> f32 {
+    pub const fn homing_nominal_ms(&self, settle_ms: u32) -> f32 {
         let h = &self.homing;
         let range = self.limit_max - self.limit_min;
         // fast seek over the whole range, back-off and release at fast speed,
@@ -158,7 +158,7 @@ impl JointConfig {
         // four accelerations to or from the fast speed, and the settle time.
         let ramps = 4.0 * h.fast_speed / self.max_acceleration;
         let s = range / h.fast_speed + 4.0 * h.backoff / h.fast_speed + 2.0 * h.backoff / h.slow_speed + ramps;
-        s * 1000.0 + HOMING_SETTLE_MS as f32
+        s * 1000.0 + settle_ms as f32
     }
     /// Distance (rad) to stop from `v` (rad/s) at this joint's acceleration.
     pub const fn braking_distance(&self, v: f32) -> f32 {
@@ -213,6 +213,10 @@ pub struct ArmConfig {
     pub following_error: f32,
     /// Time the following error may persist (ms).
     pub following_error_ms: u32,
+    /// Time each joint rests at the end of its homing before it counts as
+    /// done, so the set-point then taken from the estimate is where the
+    /// joint is (ms).
+    pub homing_settle_ms: u32,
     /// Tolerance (rad) added to the distance a stream segment can travel at
     /// the joint's speed limit before a driver-dialect target is refused as
     /// a jump.
@@ -284,9 +288,6 @@ pub const MAX_SEGMENT_TICKS: u32 = 256;
 /// latching; a link loss or `<HOME>` needs no stop). A joint holding its
 /// set-point corrects a count or two of error at Kp: a few mrad/s.
 pub const HOLD_SPEED: f32 = 0.01;
-/// Time each joint rests at the end of its homing before it counts as done,
-/// so the set-point taken from the estimate is where the joint is (ms).
-pub const HOMING_SETTLE_MS: u32 = 50;
 
 const fn joint(
     gear_ratio: f32,
@@ -361,6 +362,7 @@ pub const PAROL6: ArmConfig = ArmConfig {
     encoder_invalid_limit: 2,
     following_error: 0.05,
     following_error_ms: 20,
+    homing_settle_ms: 50,
     target_jump_tolerance: 0.02,
 };
 
@@ -439,6 +441,9 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
     let fe_ticks = ms_to_ticks(c.following_error_ms, c.tick_hz);
     if fe_ticks < 2 || c.following_error_ms > 200 {
         return Err("following error time must be at least two ticks and at most 200 ms");
+    }
+    if c.homing_settle_ms > 1000 {
+        return Err("homing settle time above 1 s");
     }
     if !(finite(c.target_jump_tolerance) && c.target_jump_tolerance >= 0.0 && c.target_jump_tolerance <= 0.1) {
         return Err("target jump tolerance must be in [0, 0.1] rad");
@@ -561,7 +566,7 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     if landing < j.limit_min || landing > j.limit_max {
         return Err("homing release does not end inside the joint limits");
     }
-    if (h.timeout_ms as f32) < j.homing_nominal_ms() * 1.2 {
+    if (h.timeout_ms as f32) < j.homing_nominal_ms(c.homing_settle_ms) * 1.2 {
         return Err("homing timeout shorter than 1.2x the nominal homing time: homing is impossible");
     }
     Ok(())

@@ -525,6 +525,7 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
         encoder_invalid_limit,
         following_error,
         following_error_ms,
+        homing_settle_ms,
         target_jump_tolerance,
     } = *c;
     let h = fnv_u32(FNV_OFFSET, tick_hz);
@@ -550,6 +551,7 @@ pub const fn config_fingerprint(c: &ArmConfig) -> u64 {
     let h = fnv_u32(h, encoder_invalid_limit);
     let h = fnv_f32(h, following_error);
     let h = fnv_u32(h, following_error_ms);
+    let h = fnv_u32(h, homing_settle_ms);
     fnv_f32(h, target_jump_tolerance)
 }
 
@@ -613,6 +615,7 @@ mod tests {
             Box::new(|c| c.observer_velocity_gain += 1.0),
             Box::new(|c| c.following_error += 0.001),
             Box::new(|c| c.following_error_ms += 1),
+            Box::new(|c| c.homing_settle_ms += 1),
             Box::new(|c| c.target_jump_tolerance += 0.001),
             Box::new(|c| c.joints[2].homing.max_travel += 0.01),
             Box::new(|c| c.deadband = 0.001),

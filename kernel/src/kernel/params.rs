@@ -4,8 +4,7 @@
 //! parser ([`TargetLimits`]). Nothing here changes after `Kernel::new`.
 
 use crate::config::{
-    ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOLD_SPEED, HOMING_SETTLE_MS, MAX_SEGMENT_TICKS,
-    POSITION_ABS_MAX,
+    ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOLD_SPEED, MAX_SEGMENT_TICKS, POSITION_ABS_MAX,
 };
 use crate::homing::HomingParams;
 use crate::interp::{profile, Profile};
@@ -114,7 +113,7 @@ impl<S: Scalar> AxisParams<S> {
                 dv: S::from_f32(j.max_acceleration / c.tick_hz as f32),
                 max_travel: S::from_f32(j.homing.max_travel),
                 phase_travel: S::from_f32(j.homing_phase_travel()),
-                settle_ticks: ms_to_ticks(HOMING_SETTLE_MS, c.tick_hz),
+                settle_ticks: ms_to_ticks(c.homing_settle_ms, c.tick_hz),
             },
             profile: profile(j.max_velocity, j.max_acceleration, c.tick_hz),
             max_jump_rad: S::from_f32(
