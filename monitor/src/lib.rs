@@ -452,6 +452,10 @@ pub struct Monitor<S> {
     infeasible: u8,
     /// SR-27: ticks each set-point has rested (unchanged).
     rest_ticks: [u32; AXES],
+    /// SR-27: for an axis given a target inside its braking distance, the
+    /// farthest point its set-point may reach (and the direction), until
+    /// the next target.
+    reach: [Option<(f64, f64)>; AXES],
     /// SR-7: the running ramp ends in homing (`HomingAfterStop`).
     pending_home: bool,
     /// SR-19, SR-28: something was injected since the set-points were last
@@ -497,6 +501,7 @@ impl<S: Scalar> Monitor<S> {
             anchor: [0.0; AXES],
             infeasible: 0,
             rest_ticks: [0; AXES],
+            reach: [None; AXES],
             pending_home: false,
             dirty: false,
             inside_at_resync: false,
@@ -1311,7 +1316,8 @@ impl<S: Scalar> Monitor<S> {
         // SR-25: in Operational and Homing the output changes by at most
         // max_acceleration / tick_hz per tick; in Homing a stop to zero at
         // the axis's switch may be immediate (a stop on a fault is the
-        // Fault state's, SR-4).
+        // Fault state's, SR-4). Its first tick may add the holding speed
+        // (`HOLD_SPEED`) of an arm at rest in Operational.
         if st == State::Operational {
             let over = first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.0001, |j| {
                 f64::from(j.max_acceleration) / hz
@@ -1329,8 +1335,10 @@ impl<S: Scalar> Monitor<S> {
             {
                 let (step, bound) = ((f(*a) - f(*b)).abs(), f64::from(j.max_acceleration) / hz);
                 let at_switch = *a == S::ZERO && sense.limits & bit(i) != 0;
+                // Homing starts from rest, and rest allows a holding output.
+                let from_rest = if prev == State::Homing { 0.0 } else { HOLD_SPEED };
                 ensure!(
-                    step <= bound * 1.0001 + 1e-6 || at_switch,
+                    step <= bound * 1.0001 + 1e-6 + from_rest || at_switch,
                     fail("SR-25", "homing output stepped more than max_acceleration/tick_hz")
                         .on(i)
                         .got(step)
@@ -1350,7 +1358,10 @@ impl<S: Scalar> Monitor<S> {
     ///   of the larger set-point (f32; at least one I8F24 LSB) times
     ///   `tick_hz` (1.9e-3 rad/s at |x| = 6.3, 1000 Hz; 2.4e-4 at |x| < 1);
     /// - it never crosses the target it moves toward in a tick, and once at
-    ///   its (unchanged) target it stays there;
+    ///   its (unchanged) target it stays there; given a target inside its
+    ///   braking distance ahead (below), it goes at most that distance
+    ///   (`v^2 / 2a + 2 |v| / tick_hz` from where it was) until the next
+    ///   target;
     /// - it stays inside the joint limits, or between them and the
     ///   set-point where Operational was entered (1e-5 rad plus rounding).
     ///
@@ -1360,7 +1371,8 @@ impl<S: Scalar> Monitor<S> {
     /// inside its braking distance in its direction of motion (from its
     /// measured set-point velocity `v`: closer than `v^2 / 2a + 2 |v| / tick_hz`):
     /// there the acceleration bound and "never past the target" cannot
-    /// both hold; the kernel keeps the second. Such an axis is judged again
+    /// both hold (neither is judged; the overshoot is bounded, above).
+    /// Such an axis is judged again
     /// once its set-point has rested at its target for `vmax / dv + 2`
     /// ticks (any hidden profile velocity has decayed by then); each is
     /// counted in [`Stats::infeasible_retargets`].
@@ -1390,6 +1402,7 @@ impl<S: Scalar> Monitor<S> {
             self.anchor = sp.map(f);
             self.infeasible = 0;
             self.rest_ticks = [0; AXES];
+            self.reach = [None; AXES];
             return Ok(());
         }
         let hz = f64::from(self.cfg.tick_hz);
@@ -1400,8 +1413,8 @@ impl<S: Scalar> Monitor<S> {
             .iter_mut()
             .zip(sp.iter().zip(self.prev_setpoint.iter()))
             .zip(self.cfg.joints.iter().zip(self.anchor.iter()))
-            .zip(self.rest_ticks.iter_mut());
-        for (i, (((v, (a, b)), (j, anchor)), rest)) in axes.enumerate() {
+            .zip(self.rest_ticks.iter_mut().zip(self.reach.iter_mut()));
+        for (i, (((v, (a, b)), (j, anchor)), (rest, reach))) in axes.enumerate() {
             let (a, b) = (*a, *b);
             let (fa, fb) = (f(a), f(b));
             *v = (fa - fb) * hz;
@@ -1419,15 +1432,29 @@ impl<S: Scalar> Monitor<S> {
             let t_new = target_now.and_then(|t| t.get(i).copied());
             let t_old = old_target.and_then(|t| t.get(i).copied());
             let changed = retargeted && t_new != t_old;
-            // A target inside the braking distance, ahead.
+            // A target inside the braking distance, ahead: the set-point
+            // may overshoot it, by at most the braking distance.
+            if changed {
+                *reach = None;
+            }
             if let (true, Some(pv), Some(t)) = (changed, pv, t_new) {
                 let d = f(t) - fb;
-                if pv * d > 0.0 && d.abs() < pv * pv / (2.0 * amax) + 2.0 * pv.abs() / hz {
-                    if self.infeasible & bit(i) == 0 {
-                        inc(&mut self.stats.infeasible_retargets);
-                    }
+                let brake = pv * pv / (2.0 * amax) + 2.0 * pv.abs() / hz;
+                if pv * d > 0.0 && d.abs() < brake {
+                    inc(&mut self.stats.infeasible_retargets);
                     self.infeasible |= bit(i);
+                    let dir = if pv > 0.0 { 1.0 } else { -1.0 };
+                    *reach = Some((fb + dir * brake, dir));
                 }
+            }
+            if let Some((r, dir)) = *reach {
+                ensure_ok(
+                    (fa - r) * dir <= tol,
+                    fail("SR-27", "set-point overshot a target inside its braking distance by more than it")
+                        .on(i)
+                        .got(fa)
+                        .bound(r),
+                )?;
             }
             if let (Some(pv), false) = (pv, self.infeasible & bit(i) != 0) {
                 let bound = dv + (dv / 256.0).max(1e-4) + 4.0 * ulp * hz;
@@ -1452,11 +1479,12 @@ impl<S: Scalar> Monitor<S> {
                 let crossed = (pa > 0.0 && pb < -tol) || (pa < 0.0 && pb > tol);
                 let left = b == t && a != t && !changed;
                 ensure_ok(
-                    !(crossed || left),
+                    !(crossed || left) || self.infeasible & bit(i) != 0,
                     fail("SR-27", "set-point passed the target it approached").on(i).got(fa).bound(ft),
                 )?;
                 if a == t && f64::from(*rest) > f64::from(j.max_velocity) / dv + 2.0 {
                     self.infeasible &= !bit(i);
+                    *reach = None;
                 }
             }
         }

@@ -122,8 +122,10 @@ pub enum Bad {
 /// A request, variant-independent.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Req {
-    /// A target (positions, host velocities).
+    /// A stream sample (positions, host velocities).
     Motion([f64; AXES], [f64; AXES]),
+    /// A go-to (a configurator frame whose six velocities are all zero).
+    GoTo([f64; AXES]),
     /// A target at `base` with one bad field on `axis`.
     BadMotion {
         /// Positions of the other axes.
@@ -158,6 +160,33 @@ pub enum Step {
         period: u32,
         /// Targets sent.
         count: u32,
+    },
+    /// A go-to (configurator-style frame, all velocities zero) to `goal`
+    /// (fractions of each joint's range, as for `Stream`), then `wait` ticks.
+    GoTo {
+        /// Goal, fraction of range per joint.
+        goal: [f64; AXES],
+        /// Ticks after.
+        wait: u32,
+    },
+    /// The host link is reported lost for `ticks` (a cable pull).
+    LinkLoss(u32),
+    /// The motor of `axis` turns the wrong way (`reversed`) or not at all
+    /// for `ticks` (can fault: following error, homing travel).
+    BrokenMotor {
+        /// Axis.
+        axis: usize,
+        /// Reversed rather than stalled.
+        reversed: bool,
+        /// Duration.
+        ticks: u32,
+    },
+    /// The homing switch of `axis` never closes during a full homing run
+    /// (a broken wire): `<HOME>`, then until homing ends (at most
+    /// [`HOMING_WAIT_MAX`] ticks).
+    DeadSwitchHome {
+        /// Axis.
+        axis: usize,
     },
     /// One bad target, then `idle` ticks.
     BadMotion {
@@ -249,6 +278,28 @@ fn range(i: usize) -> (f64, f64) {
     (f64::from(j.limit_min), f64::from(j.limit_max))
 }
 
+/// Fractions of each joint's range to angles (exactly the limit at 0 and 1).
+fn angles(goal: &[f64; AXES]) -> [f64; AXES] {
+    std::array::from_fn(|i| {
+        let (lo, hi) = range(i);
+        if goal[i] <= 0.0 {
+            lo
+        } else if goal[i] >= 1.0 {
+            hi
+        } else {
+            lo + goal[i] * (hi - lo)
+        }
+    })
+}
+
+/// Largest distance (rad) between the samples of a multi-sample stream
+/// step: below every joint's segment travel (J1, J2: 3 rad/s x 40 ms plus
+/// the braking distance 0.15 and the tolerance 0.02 = 0.29 rad).
+pub const STREAM_STEP: f64 = 0.25;
+
+/// Fraction of each joint's speed limit an even-count stream step moves at.
+pub const STREAM_SPEED: f64 = 0.8;
+
 /// Plays one step.
 pub fn run_step<D: Driver + ?Sized>(d: &mut D, step: &Step) {
     let idle = |d: &mut D, n: u32| {
@@ -259,18 +310,29 @@ pub fn run_step<D: Driver + ?Sized>(d: &mut D, step: &Step) {
     match step {
         Step::Stream { goal, vel, period, count } => {
             let q0 = d.q();
-            let goal: [f64; AXES] = std::array::from_fn(|i| {
-                let (lo, hi) = range(i);
-                // Exactly the limit at 0 and 1.
-                if goal[i] <= 0.0 {
-                    lo
-                } else if goal[i] >= 1.0 {
-                    hi
-                } else {
-                    lo + goal[i] * (hi - lo)
-                }
-            });
+            let goal = angles(goal);
             let v: [f64; AXES] = std::array::from_fn(|i| vel[i] * f64::from(PAROL6.joints[i].max_velocity));
+            // A stream of several samples moves at most `STREAM_STEP` per
+            // sample (within a segment's travel: the kernel refuses farther
+            // samples as jumps); with an even count also at most
+            // `STREAM_SPEED` of each joint's speed limit (a host the arm can
+            // follow: its set-points land at the last sample soon after).
+            // A single sample may be a leap.
+            let dt = f64::from(*period) / f64::from(PAROL6.tick_hz);
+            let needed = (0..AXES)
+                .map(|i| {
+                    let d = (goal[i] - q0[i]).abs();
+                    let by_speed = if count % 2 == 0 {
+                        d / (STREAM_SPEED * f64::from(PAROL6.joints[i].max_velocity) * dt)
+                    } else {
+                        0.0
+                    };
+                    (d / STREAM_STEP).max(by_speed).ceil() as u32
+                })
+                .max()
+                .unwrap_or(1);
+            let count = if *count > 1 { (*count).max(needed) } else { *count };
+            let count = &count;
             for k in 1..=*count {
                 let f = f64::from(k) / f64::from(*count);
                 let p: [f64; AXES] =
@@ -278,6 +340,40 @@ pub fn run_step<D: Driver + ?Sized>(d: &mut D, step: &Step) {
                 d.tick(Some(Req::Motion(p, v)));
                 idle(d, period.saturating_sub(1));
             }
+        }
+        Step::GoTo { goal, wait } => {
+            d.tick(Some(Req::GoTo(angles(goal))));
+            idle(d, *wait);
+        }
+        Step::LinkLoss(n) => {
+            d.env(&|p| p.link_lost = true);
+            idle(d, *n);
+            d.env(&|p| p.link_lost = false);
+        }
+        Step::BrokenMotor { axis, reversed, ticks } => {
+            let m = 1u8 << axis;
+            if *reversed {
+                d.env(&|p| p.reversed |= m);
+            } else {
+                d.env(&|p| p.stalled |= m);
+            }
+            idle(d, *ticks);
+            d.env(&|p| {
+                p.reversed &= !m;
+                p.stalled &= !m;
+            });
+        }
+        Step::DeadSwitchHome { axis } => {
+            let m = 1u8 << axis;
+            d.env(&|p| p.dead_switch |= m);
+            d.tick(Some(Req::Home));
+            for _ in 0..HOMING_WAIT_MAX {
+                if d.state() != State::Homing {
+                    break;
+                }
+                d.tick(None);
+            }
+            d.env(&|p| p.dead_switch &= !m);
         }
         Step::BadMotion { axis, bad, idle: n } => {
             let base = d.q().map(|x| x.clamp(-1.6, 1.6));
@@ -419,6 +515,9 @@ pub fn step_strategy(mix: Mix) -> BoxedStrategy<Step> {
             .prop_map(|(goal, vel, period, count)| Step::Stream { goal, vel, period, count }),
         4 => (axis(), bad(), 0u32..=20).prop_map(|(axis, bad, idle)| Step::BadMotion { axis, bad, idle }),
         8 => prop_oneof![1..=60u32, 90u32..=110, 150u32..=400].prop_map(Step::Silence),
+        8 => (fractions(), prop_oneof![0u32..=50, 300u32..=2500])
+            .prop_map(|(goal, wait)| Step::GoTo { goal, wait }),
+        3 => prop_oneof![1u32..=20, 100u32..=400].prop_map(Step::LinkLoss),
         2 => (axis(), encoder_fault(), 1u32..=6).prop_map(|(axis, fault, ticks)| Step::EncoderLoss { axis, fault, ticks }),
         2 => (any::<u8>(), 1u32..=30).prop_map(|(m, ticks)| Step::LimitHit { mask: m & 0b11_1111, ticks }),
         1 => (hardware(), 1u32..=3).prop_map(|(fault, ticks)| Step::Hardware { fault, ticks }),
@@ -436,6 +535,9 @@ pub fn step_strategy(mix: Mix) -> BoxedStrategy<Step> {
             1 => (axis(), -2048i32..=2047).prop_map(|(axis, counts)| Step::Slip { axis, counts }),
             3 => (axis(), prop_oneof![-12.0..12.0f64, -1.0..1.0f64], 1u32..=400)
                 .prop_map(|(axis, velocity, ticks)| Step::Disturb { axis, velocity, ticks }),
+            3 => (axis(), any::<bool>(), prop_oneof![1u32..=30, 100u32..=1500])
+                .prop_map(|(axis, reversed, ticks)| Step::BrokenMotor { axis, reversed, ticks }),
+            1 => axis().prop_map(|axis| Step::DeadSwitchHome { axis }),
         ]
         .boxed(),
     }
@@ -536,6 +638,9 @@ impl<S: Variant> Sut<S> {
                 let t = MotionTarget { position: conv(p), velocity: conv(v), kind: MotionKind::Stream };
                 Request::Motion(t)
             }
+            Req::GoTo(p) => {
+                Request::Motion(MotionTarget { position: conv(p), velocity: [S::ZERO; AXES], kind: MotionKind::GoTo })
+            }
             Req::BadMotion { base, axis, bad } => {
                 let mut t = MotionTarget { position: conv(base), velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
                 let j = &PAROL6.joints[axis];
@@ -631,7 +736,44 @@ pub struct Pair {
     pub worst_skew: u32,
     /// Ticks whose homing phases differed (outputs not compared).
     pub skew_ticks: u64,
+    /// The set-point profiles of the two kernels took a discrete decision
+    /// (accelerate, cruise, brake, land) a tick apart (see
+    /// [`PROFILE_SPLIT`]): outputs and set-points are not compared until
+    /// they realign ([`RESYNC_TICKS`]) or both kernels enter a state that
+    /// resets the outputs (Homing, SoftEstop, Fault, Unhomed).
+    pub split: bool,
+    /// How many times that happened.
+    pub splits: u32,
+    /// Ticks not compared because of a split.
+    pub split_ticks: u64,
+    /// Consecutive realigned ticks during a split.
+    calm: u32,
+    /// The tick at which the states differed during a split (a hold versus
+    /// latch decided a tick apart, say): the case's comparison ended there.
+    /// States differing outside a split fail the test.
+    pub diverged: Option<u64>,
+    /// Ticks whose outputs and set-points were compared.
+    pub compared_ticks: u64,
+    /// Largest set-point velocity difference seen while compared (rad/s).
+    pub worst_sp_vel: f64,
+    prev_sp: Option<([f64; AXES], [f64; AXES])>,
+    prev_state: State,
 }
+
+/// Set-point velocities (from consecutive set-points) of the two variants
+/// that differ by more than this fraction of a joint's `dv` (its
+/// acceleration per tick) mean the profile took a discrete decision a tick
+/// apart (its braking test or landing test fell on the other side of its
+/// rounding allowance): one variant's set-point then runs a whole `dv`
+/// ahead, and its output with it (by up to `dv` plus the control
+/// correction). The monitors still judge every tick of both.
+pub const PROFILE_SPLIT: f64 = 0.25;
+
+/// Consecutive ticks with set-points within `BOUND_Q / 10` and set-point
+/// velocities within [`PROFILE_SPLIT`] `dv` after which a split ends and
+/// the comparison resumes (the acceleration-limited outputs need a few
+/// tens of ticks to realign).
+pub const RESYNC_TICKS: u32 = 100;
 
 /// Longest run of ticks the homing phases may differ. A phase that ends
 /// when the estimate crosses a distance (the back-off) can end a tick apart
@@ -654,6 +796,15 @@ impl Pair {
             skew: 0,
             worst_skew: 0,
             skew_ticks: 0,
+            split: false,
+            splits: 0,
+            split_ticks: 0,
+            calm: 0,
+            diverged: None,
+            compared_ticks: 0,
+            worst_sp_vel: 0.0,
+            prev_sp: None,
+            prev_state: State::Boot,
         }
     }
 }
@@ -673,6 +824,54 @@ impl Driver for Pair {
         let oa = self.a.tick(req);
         let ob = self.b.tick(req);
         let t = self.a.ticks;
+        if self.diverged.is_some() {
+            return;
+        }
+        // A discrete profile decision a tick apart: a split (see `split`).
+        let both_op = oa.status.state == State::Operational && ob.status.state == State::Operational;
+        let sp_a = oa.status.setpoint.map(f64::from);
+        let sp_b = ob.status.setpoint.map(|x| f64::from(x.to_f32()));
+        let mut apart = false;
+        let mut calm = both_op;
+        if let (true, Some((pa, pb))) = (both_op, self.prev_sp) {
+            let hz = f64::from(PAROL6.tick_hz);
+            for i in 0..AXES {
+                let (va, vb) = ((sp_a[i] - pa[i]) * hz, (sp_b[i] - pb[i]) * hz);
+                let dv = f64::from(PAROL6.joints[i].max_acceleration) / hz;
+                if (va - vb).abs() > PROFILE_SPLIT * dv {
+                    apart = true;
+                } else if !self.split {
+                    self.worst_sp_vel = self.worst_sp_vel.max((va - vb).abs());
+                }
+                calm &= (sp_a[i] - sp_b[i]).abs() <= self.bound_q / 10.0;
+            }
+        }
+        self.prev_sp = if both_op { Some((sp_a, sp_b)) } else { None };
+        if apart {
+            if !self.split {
+                self.splits += 1;
+            }
+            self.split = true;
+            self.calm = 0;
+        } else if self.split {
+            let same = oa.status.state == ob.status.state;
+            let reset = same
+                && oa.status.state != self.prev_state
+                && matches!(oa.status.state, State::Homing | State::SoftEstop | State::Fault | State::Unhomed);
+            self.calm = if calm { self.calm + 1 } else { 0 };
+            if reset || self.calm >= RESYNC_TICKS {
+                self.split = false;
+            }
+        }
+        self.prev_state = oa.status.state;
+        if self.split {
+            self.split_ticks += 1;
+            if oa.status.state != ob.status.state {
+                self.diverged = Some(t);
+            }
+            return;
+        }
+        self.compared_ticks += 1;
         assert_eq!(
             oa.status.state, ob.status.state,
             "differential: states differ at tick {t}: f32 {:?} fx {:?}\n f32 events {:?}\n fx events {:?}",

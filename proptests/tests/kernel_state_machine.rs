@@ -1,7 +1,10 @@
 //! proptest-state-machine runs of the whole kernel, both numeric variants:
-//! long random sequences of motion commands (valid, out of limits, NaN),
-//! dropouts, encoder losses and glitches, limit hits, outside forces,
-//! hardware faults, enables and homes, against the plant, with every safety
+//! long random sequences of motion commands (stream samples, valid, out of
+//! limits, NaN, too far: `TARGET_JUMP`; configurator-style go-to frames),
+//! dropouts (that hold or latch), lost links, encoder losses and glitches,
+//! limit hits, outside forces, stalled and reversed motors, dead homing
+//! switches, hardware faults, enables and homes (also while moving),
+//! against the plant, with every safety
 //! requirement that applies checked at every tick by the `monitor` crate (re-exported as `proptests::monitor`).
 //!
 //! Cases: `PROPTEST_CASES` (default below). Failures are persisted in
@@ -84,7 +87,9 @@ fn run<S: Variant>(file: &'static str) {
         "state machine [{}]: {cases} cases, {} ticks checked in {:.1} s; ticks per state \
          (Boot, Unhomed, Homing, Operational, Stopping, SoftEstop, Fault) {:?}; moving {}; \
          targets accepted {}, requests rejected {}; enables {} (refused with a cause {}; sent at rest {}); \
-         soft stops {} (completed {}); homing runs completed {}; faults: {}",
+         soft stops {} (completed {}; of them for a lost link {}); holds at the timeout {}; go-tos accepted {}; \
+         stream samples refused as jumps {}; HOME while moving {}; targets inside the braking distance {}; \
+         ticks with a broken motor {}; homing runs completed {}; faults: {}",
         S::NAME,
         s.ticks,
         t0.elapsed().as_secs_f64(),
@@ -97,6 +102,13 @@ fn run<S: Variant>(file: &'static str) {
         s.quiet_enables,
         s.soft_stops,
         s.stopped,
+        s.link_stops,
+        s.holds,
+        s.goto_accepted,
+        s.target_jumps,
+        s.homes_after_stop,
+        s.infeasible_retargets,
+        s.broken_motor_ticks,
         s.homing_done,
         faults.join(", ")
     );
@@ -105,6 +117,7 @@ fn run<S: Variant>(file: &'static str) {
     if cases >= DEFAULT_CASES {
         assert!(s.state_ticks.iter().all(|t| *t > 0), "every state visited: {:?}", s.state_ticks);
         assert!(s.accepted > 0 && s.enabled > 0 && s.stopped > 0 && s.homing_done > 0, "{s:?}");
+        assert!(s.goto_accepted > 0 && s.link_stops > 0 && s.broken_motor_ticks > 0, "{s:?}");
     }
 }
 
