@@ -295,11 +295,13 @@ pub fn summary(reports: &[Report]) -> String {
         faults.dedup();
         let faults = if faults.is_empty() { "-".to_string() } else { faults.join("; ") };
         let held = r.expectations.iter().filter(|e| e.1).count();
+        let pending = r.expectations.iter().filter(|e| e.0.starts_with("PENDING")).count();
         let exp = format!(
-            "{}/{} {}{}",
+            "{}/{} {}{}{}",
             held,
             r.expectations.len(),
             if r.expectations_held() { "ok" } else { "FAIL" },
+            if pending > 0 { format!(" ({pending} pending kernel fix)") } else { String::new() },
             if r.informational { " (informational)" } else { "" }
         );
         let _ = writeln!(

@@ -329,6 +329,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 Action::Switch(j, f) => root.board.plant.force_switch(*j, *f),
                 Action::Runaway(j, v) => root.board.plant.set_disturbance(*j, *v),
                 Action::LostSteps(j, f) => root.board.plant.set_lost_steps(*j, *f),
+                Action::CableSilent => hosts.cable = false,
                 Action::ReverseDir(j, on) => root.board.plant.set_dir_inverted(*j, *on),
                 Action::Noise(n) => root.board.plant.set_noise(*n),
             }

@@ -124,8 +124,12 @@ pub enum Action {
         pose: [f64; AXES],
     },
     /// Unplug (`false`) or plug (`true`) the cable: while unplugged no byte
-    /// reaches the firmware.
+    /// reaches the firmware, and over USB the port closes (the firmware
+    /// reports the link lost to the kernel).
     Cable(bool),
+    /// The bytes stop but the port stays open (a UART link, or a host that
+    /// stops writing without closing the port): nothing tells the firmware.
+    CableSilent,
     /// Add `offset` counts to `frames` frames of encoder `joint`.
     Glitch {
         /// Joint index.
@@ -408,7 +412,8 @@ fn parse_action(text: &str) -> Result<Action> {
         "cable" => match one(&w)? {
             "pull" => Action::Cable(false),
             "plug" => Action::Cable(true),
-            o => bail!("cable takes `pull` or `plug`, not `{o}`"),
+            "silent" => Action::CableSilent,
+            o => bail!("cable takes `pull`, `silent` or `plug`, not `{o}`"),
         },
         "glitch" => {
             if !(w.len() == 2 || w.len() == 3) {
@@ -696,7 +701,7 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 17] = [
+pub const BUILTIN: [(&str, &str); 18] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("driver-stream-cut", include_str!("../scenarios/driver-stream-cut.scn")),
@@ -705,6 +710,7 @@ pub const BUILTIN: [(&str, &str); 17] = [
     ("configurator-goto", include_str!("../scenarios/configurator-goto.scn")),
     ("cable-pull", include_str!("../scenarios/cable-pull.scn")),
     ("cable-pull-goto", include_str!("../scenarios/cable-pull-goto.scn")),
+    ("stream-resumes-after-silence", include_str!("../scenarios/stream-resumes-after-silence.scn")),
     ("home-mid-stream", include_str!("../scenarios/home-mid-stream.scn")),
     ("stale-h2-reactivation", include_str!("../scenarios/stale-h2-reactivation.scn")),
     ("limit-hit", include_str!("../scenarios/limit-hit.scn")),

@@ -268,3 +268,11 @@ fn bad_scenario_files_name_the_line() {
     assert!(e.contains("missing.scn"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn stream_resuming_after_silence_is_refused_while_far() {
+    let r = run_builtin("stream-resumes-after-silence");
+    assert_passes(&r);
+    let jumps: u64 = r.refusals.iter().filter(|(k, _)| k.contains("TargetJump")).map(|(_, n)| n).sum();
+    assert!(jumps > 10, "{:?}", r.refusals);
+}
