@@ -263,7 +263,11 @@ fn a_timeout_at_rest_holds_and_the_next_command_continues<S: Scalar>() {
 /// ramps down and latches.
 fn a_timeout_while_moving_still_latches<S: Scalar>() {
     let mut r = homed::<S>();
-    stream(&mut r, 0, 2.0, 20);
+    let mut p = stream(&mut r, 0, 2.0, 20);
+    // The last sample 0.25 rad further: the set-point is still on its way
+    // 100 ms later.
+    p[0] += 0.25;
+    assert!(r.motion(p).events.is_empty());
     let n = r.run_until(300, |o| o.status.state == State::Stopping).expect("soft stop");
     assert!(r.events.iter().any(|e| matches!(e, Event::SoftEstop { cause: StopCause::CommandTimeout { .. } })));
     assert!(n <= 100, "{n}");

@@ -243,6 +243,14 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
         r.motion(p);
         r.run(9);
     }
+    // A last sample 0.25 rad further (inside the stream-continuity bound):
+    // the set-points are still on their way when the timeout expires, so
+    // the motion is interrupted (a stream ending at rest holds instead).
+    for (i, x) in p.iter_mut().enumerate() {
+        let dir = if PAROL6.joints[i].homing.direction.sign() > 0.0 { -1.0 } else { 1.0 };
+        *x += dir * 0.25;
+    }
+    assert!(r.motion(p).events.is_empty());
     let moving = r.last.unwrap().act.velocity;
     assert!(moving.iter().all(|v| v.abs().to_f32() > 0.5), "{moving:?}");
     // Silence: 100 ms of timeout, then the ramp.
@@ -269,10 +277,10 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
         }
         prev = out.act.velocity;
     }
-    // The last command was 9 ticks before this loop began.
-    let started = started.expect("soft stop started") + 9;
+    // The last command was in the tick before this loop began.
+    let started = started.expect("soft stop started");
     assert!((100..=102).contains(&started), "timeout {started} ticks after the last command");
-    let stop = ticks_to_stop.unwrap() + 9;
+    let stop = ticks_to_stop.unwrap();
     assert!(stop <= 200, "standstill {stop} ms after the last command (budget 200)");
     assert_eq!(r.k.state(), State::SoftEstop);
     assert!(r.events.iter().any(|e| matches!(e, Event::SoftEstop { .. })));
@@ -492,7 +500,9 @@ fn enable_is_refused_while_an_axis_moves_faster_than_its_limit<S: Scalar>() {
 /// During the soft-stop ramp enable is refused with its own reason.
 fn enable_while_stopping_is_refused_as_stopping<S: Scalar>() {
     let mut r = homed::<S>();
-    r.motion(r.plant.q);
+    let mut p = r.plant.q;
+    p[0] += 0.2; // still on its way when the timeout expires
+    r.motion(p);
     r.run_until(200, |o| o.status.state == State::Stopping).expect("timeout");
     let out = r.enable();
     assert!(
