@@ -2,14 +2,16 @@
 //!
 //! * [`plant`]: the one test plant (steppers, encoders, switches) with fault
 //!   injection, re-exported from the `monitor` crate;
-//! * [`monitor`]: the one per-tick safety monitor (SR-1..SR-19, SR-25), the
+//! * [`monitor`]: the one per-tick safety monitor (SR-1..SR-19, SR-25, SR-27..SR-31), the
 //!   `monitor` crate, re-exported;
 //! * [`scenario`]: random operating sequences and the drivers that play them
 //!   against one kernel, or against the f32 and fixed-point kernels in lockstep.
 //!
 //! The tests are in `tests/`: `kernel_state_machine.rs` (proptest-state-machine
-//! runs of both variants), `differential.rs` (f32 vs fixed point) and
-//! `workflow_yaml.rs` (structure of the CI workflow). Failures are persisted
+//! runs of both variants), `differential.rs` (f32 vs fixed point),
+//! `issue12_findings.rs` (deterministic replays of what the random runs
+//! found in the issue 12 kernel) and `workflow_yaml.rs` (structure of the CI
+//! workflow). Failures are persisted
 //! under `proptest-regressions/` and replayed first on every run.
 
 pub use monitor::{self, plant};
