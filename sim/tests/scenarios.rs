@@ -276,3 +276,39 @@ fn stream_resuming_after_silence_is_refused_while_far() {
     let jumps: u64 = r.refusals.iter().filter(|(k, _)| k.contains("TargetJump")).map(|(_, n)| n).sum();
     assert!(jumps > 10, "{:?}", r.refusals);
 }
+
+/// The wire checks accept every line issue 12 added (formatted by the
+/// protocol crate itself): none contains `nan`/`inf`, none starts with `<`.
+#[test]
+fn wire_checks_accept_the_new_lines() {
+    use kernel::homing::Phase;
+    use kernel::{Event, FaultReason, Reject, RequestKind, StopCause};
+    let events = [
+        Event::Holding,
+        Event::HomingAfterStop,
+        Event::SoftEstop { cause: StopCause::LinkLost },
+        Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms: 101 } },
+        Event::Fault(FaultReason::FollowingError { axis: 0 }),
+        Event::Fault(FaultReason::HomingTravel { axis: 5, phase: Phase::FastSeek }),
+        Event::Fault(FaultReason::HomingTimeout { axis: 2, phase: Phase::Settle }),
+        Event::Rejected { request: RequestKind::Motion, reason: Reject::TargetJump { axis: 3 } },
+        Event::Rejected { request: RequestKind::Home, reason: Reject::Latched },
+        Event::Rejected { request: RequestKind::HomeJoint(2), reason: Reject::Latched },
+        Event::Rejected { request: RequestKind::Motion, reason: Reject::Internal },
+    ];
+    let mut lines = Vec::new();
+    for e in &events {
+        let mut l = protocol::Line::new();
+        protocol::report::event_line(&mut l, e).unwrap();
+        lines.push(format!("{l}\n"));
+    }
+    let mut root = Root::new(&PAROL6_VALIDATED, PlantOptions::new(&PAROL6), firmware::root::HostConfig::USB);
+    let mut checker = TickChecker::new(&PAROL6_VALIDATED);
+    for _ in 0..10 {
+        assert!(checker.check(&root.step(b"")).is_empty());
+    }
+    let mut step = root.step(b"");
+    step.lines.extend(lines.iter().cloned());
+    assert!(checker.check(&step).is_empty(), "{lines:?}: {:?}", checker.check(&step));
+    println!("{}", lines.concat());
+}
