@@ -267,6 +267,9 @@ pub struct Scenario {
     pub max_ms: u64,
     /// Expectations failing here do not fail the run (safety still does).
     pub informational: bool,
+    /// The scenario is about what USB can tell (the port closing): run
+    /// with the Serial1 main loop, its expectations are informational.
+    pub usb_only: bool,
     /// Plant settings.
     pub pose: Option<[f64; AXES]>,
     /// Encoder noise (sigma, counts).
@@ -292,6 +295,7 @@ impl Scenario {
             end: When { anchor: None, offset_ms: 10_000 },
             max_ms: 120_000,
             informational: false,
+            usb_only: false,
             pose: None,
             noise: None,
             switch_at: Vec::new(),
@@ -337,6 +341,7 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         "end" => s.end = parse_when(one(&words)?)?,
         "max" => s.max_ms = parse_ms(one(&words)?)?,
         "informational" => s.informational = true,
+        "usb-only" => s.usb_only = true,
         "pose" => s.pose = Some(six(&words)?),
         "noise" => s.noise = Some(num(one(&words)?)?),
         "seed" => s.seed = one(&words)?.parse().context("seed must be an integer")?,
@@ -357,7 +362,7 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         }
         "expect" => s.expects.push(parse_expect(rest)?),
         other => bail!(
-            "unknown keyword `{other}` (expected name, description, end, max, informational, pose, noise, seed, \
+            "unknown keyword `{other}` (expected name, description, end, max, informational, usb-only, pose, noise, seed, \
              switch-at, max-step-rate, at, expect)"
         ),
     }
