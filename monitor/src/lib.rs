@@ -850,8 +850,9 @@ impl<S: Scalar> Monitor<S> {
                 sense.link_lost && (eff_homing || eff_pending || (op && !surely_still)),
                 fail("SR-31", "a link-loss stop without a lost link, or of an arm at rest")
             );
+            // (A stop to home whose ramp ends in the same tick latches at once.)
             ensure!(
-                matches!(st, State::Stopping | State::Fault),
+                matches!(st, State::Stopping | State::Fault) || (prev == State::Stopping && st == State::SoftEstop),
                 fail("SR-31", "a link-loss stop did not start the ramp")
             );
             if eff_homing {
