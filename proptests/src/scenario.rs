@@ -739,8 +739,8 @@ pub struct Pair {
     /// The set-point profiles of the two kernels took a discrete decision
     /// (accelerate, cruise, brake, land) a tick apart (see
     /// [`PROFILE_SPLIT`]): outputs and set-points are not compared until
-    /// they realign ([`RESYNC_TICKS`]) or both kernels enter a state that
-    /// resets the outputs (Homing, SoftEstop, Fault, Unhomed).
+    /// they realign ([`RESYNC_TICKS`]) or both kernels resynchronise their
+    /// set-points (entering Homing or Fault, or an enable).
     pub split: bool,
     /// How many times that happened.
     pub splits: u32,
@@ -855,9 +855,14 @@ impl Driver for Pair {
             self.calm = 0;
         } else if self.split {
             let same = oa.status.state == ob.status.state;
+            // Entering Homing or Fault, or leaving a latch (enable),
+            // resynchronises the set-points to the estimates and restarts
+            // the outputs from zero in both kernels. (SoftEstop zeroes the
+            // outputs but keeps the set-points where they stopped.)
             let reset = same
                 && oa.status.state != self.prev_state
-                && matches!(oa.status.state, State::Homing | State::SoftEstop | State::Fault | State::Unhomed);
+                && (matches!(oa.status.state, State::Homing | State::Fault)
+                    || matches!(self.prev_state, State::SoftEstop | State::Fault));
             self.calm = if calm { self.calm + 1 } else { 0 };
             if reset || self.calm >= RESYNC_TICKS {
                 self.split = false;

@@ -22,9 +22,9 @@
 //! set-point velocities differ by more than `PROFILE_SPLIT * dv` on some
 //! axis (a split) outputs and set-points are not compared, until the
 //! set-points have agreed within `BOUND_Q / 10` with velocities within
-//! `PROFILE_SPLIT * dv` for `RESYNC_TICKS` ticks, or both kernels enter a
-//! state that resets the outputs together (Homing, SoftEstop, Fault,
-//! Unhomed). States differing during a split end that case's comparison
+//! `PROFILE_SPLIT * dv` for `RESYNC_TICKS` ticks, or both kernels
+//! resynchronise their set-points together (entering Homing or Fault, or
+//! an enable). States differing during a split end that case's comparison
 //! (counted); outside a split they fail the test. Splits, the ticks not
 //! compared and the cases ended are printed. Both kernels stay checked by
 //! the safety monitor at every tick, split or not.
