@@ -42,7 +42,7 @@
 //! | SR-27 | in Operational the set-point velocity, computed from consecutive set-points, changes by at most max_acceleration/tick_hz plus the landing allowance and rounding (see `Monitor::check_setpoints`); a set-point never crosses its target and stays once there; set-points within the joint limits (or the resync point) |
 //! | SR-28 | homing travel per phase within `homing.max_travel` (fast seek) or `JointConfig::homing_phase_travel()`, else a fault by then; with [`PlantFacts`], no `FollowingError` unless something was injected since the last resync, and a stalled or reversed joint whose set-point stays beyond the bound (+ [`FE_LIVENESS_SLACK`]) from its true angle faults within the bound's time (+ slack) |
 //! | SR-29 | at the command timeout exactly one of: a timeout stop, `Holding`, a link-loss stop; `Holding` never while a set-point or an output above [`HOLD_SPEED`] moves, and it stays Operational, disarmed; no timeout stop of an arm at rest at its targets |
-//! | SR-30 | a stream sample is accepted only within [`max_jump`] (+ [`JUMP_SLACK`]) of the set-point or the previous target on every axis, and refused (`TargetJump`) only beyond it; never a go-to |
+//! | SR-30 | a stream sample is accepted only within [`max_jump`]'s high bound (+ [`JUMP_SLACK`]) of the set-point or the previous target on every axis, and refused (`TargetJump`) only beyond its low bound; never a go-to |
 //! | SR-31 | a lost link while moving, homing, or stopping to home starts a soft stop (`StopCause::LinkLost`) at once, and only then; an interrupted homing run is reported failed (H3) |
 //!
 //! A std caller with a `TickOutput<f32>` per tick:
@@ -1138,7 +1138,7 @@ impl<S: Scalar> Monitor<S> {
                 let reason = rejected.map(|r| r.1);
                 // (axis, distance, bound) of each axis, when the previous
                 // target is known.
-                let jump = |i: usize| -> Option<(f64, f64)> {
+                let jump = |i: usize| -> Option<(f64, (f64, f64))> {
                     let (j, p) = (self.cfg.joints.get(i)?, f(*t.position.get(i)?));
                     let from_sp = (p - f(*self.prev_setpoint.get(i)?)).abs();
                     let from_last = (p - f(*old_target?.get(i)?)).abs();
@@ -1151,7 +1151,7 @@ impl<S: Scalar> Monitor<S> {
                         inc(&mut self.stats.goto_accepted);
                     }
                     for i in 0..AXES {
-                        if let (true, Some((d, b))) = (stream, jump(i)) {
+                        if let (true, Some((d, (_, b)))) = (stream, jump(i)) {
                             ensure!(
                                 d <= b + JUMP_SLACK,
                                 fail("SR-30", "stream sample beyond a segment's travel accepted").on(i).got(d).bound(b)
@@ -1165,7 +1165,7 @@ impl<S: Scalar> Monitor<S> {
                         stream && prev == State::Operational && verdict != Validity::Invalid,
                         fail("SR-30", "TargetJump for a go-to, an invalid target, or outside Operational").on(i)
                     );
-                    if let Some((d, b)) = jump(i) {
+                    if let Some((d, (b, _))) = jump(i) {
                         ensure!(
                             d >= b - JUMP_SLACK,
                             fail("SR-30", "stream sample within a segment's travel refused as a jump")
@@ -1587,11 +1587,16 @@ pub const JUMP_SLACK: f64 = 1e-4;
 
 /// SR-30: how far a stream sample may be from the set-point (or the
 /// previous target): one longest segment at the speed limit, the braking
-/// distance from it, and the configured tolerance (rad).
-pub fn max_jump(cfg: &ArmConfig, j: &kernel::config::JointConfig) -> f64 {
+/// distance from it, and the configured tolerance (rad), as a band: the
+/// set-points brake at `max_acceleration` at most and at
+/// [`PROFILE_DECEL_MIN`] of it at least (the kernel may use a share of the
+/// output's limit), so the kernel's bound lies in `(low, high)`: a sample
+/// farther than `high` must be refused, one nearer than `low` accepted.
+pub fn max_jump(cfg: &ArmConfig, j: &kernel::config::JointConfig) -> (f64, f64) {
     let vmax = f64::from(j.max_velocity);
-    let seg_s = f64::from(cfg.segment_max_ms) / 1000.0;
-    vmax * seg_s + vmax * vmax / (2.0 * f64::from(j.max_acceleration)) + f64::from(cfg.target_jump_tolerance)
+    let a = f64::from(j.max_acceleration);
+    let base = vmax * f64::from(cfg.segment_max_ms) / 1000.0 + f64::from(cfg.target_jump_tolerance);
+    (base + vmax * vmax / (2.0 * a), base + vmax * vmax / (2.0 * a * PROFILE_DECEL_MIN))
 }
 
 fn cfg_joints(cfg: &ArmConfig) -> core::slice::Iter<'_, kernel::config::JointConfig> {

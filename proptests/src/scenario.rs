@@ -585,6 +585,10 @@ pub struct Sut<S: Variant> {
     recent: VecDeque<(u64, Sense, Option<Req>, TickOutput<S>)>,
     /// The last tick's output.
     pub last: Option<TickOutput<S>>,
+    /// Its outputs do not move the arm (the fixed-point kernel of a
+    /// [`Pair`]): the monitor's clean-plant checks (SR-19's overrun, SR-28's
+    /// following error) do not apply to it.
+    pub follower: bool,
 }
 
 impl<S: Variant> Sut<S> {
@@ -600,6 +604,7 @@ impl<S: Variant> Sut<S> {
             boot_lost_until: None,
             recent: VecDeque::new(),
             last: None,
+            follower: false,
         }
     }
 
@@ -676,7 +681,10 @@ impl<S: Variant> Sut<S> {
         let sent = request.as_ref().map(Sent::of);
         self.wit.before(&self.plant);
         let out = self.k.tick(&sense, request);
-        let facts = self.wit.after(&self.plant, &out);
+        let mut facts = self.wit.after(&self.plant, &out);
+        // A kernel whose outputs do not move the arm (the follower of a
+        // differential pair) sees an arm driven by someone else.
+        facts.disturbed |= self.follower;
         if self.recent.len() == 6 {
             self.recent.pop_front();
         }
@@ -752,6 +760,10 @@ pub struct Pair {
     /// latch decided a tick apart, say): the case's comparison ended there.
     /// States differing outside a split fail the test.
     pub diverged: Option<u64>,
+    /// The case ended because the fixed-point kernel, which does not drive
+    /// the arm, faulted FOLLOWING_ERROR after a split (its path and the arm
+    /// drifted apart).
+    pub follower_fe: bool,
     /// Ticks whose outputs and set-points were compared.
     pub compared_ticks: u64,
     /// Largest set-point velocity difference seen while compared (rad/s).
@@ -785,9 +797,11 @@ pub const MAX_SKEW: u32 = 3;
 impl Pair {
     /// Both from `start`.
     pub fn new(start: &Start, bound_v: f64, bound_q: f64) -> Self {
+        let mut b = Sut::new(start);
+        b.follower = true;
         Pair {
             a: Sut::new(start),
-            b: Sut::new(start),
+            b,
             worst_v: 0.0,
             worst_q: 0.0,
             worst_est: 0.0,
@@ -801,6 +815,7 @@ impl Pair {
             split_ticks: 0,
             calm: 0,
             diverged: None,
+            follower_fe: false,
             compared_ticks: 0,
             worst_sp_vel: 0.0,
             prev_sp: None,
@@ -872,11 +887,22 @@ impl Driver for Pair {
         if self.split {
             self.split_ticks += 1;
             if oa.status.state != ob.status.state {
+                let fe = |o: &Option<kernel::Fault>| matches!(o, Some(f) if matches!(f.reason, kernel::FaultReason::FollowingError { .. }));
+                self.follower_fe = fe(&ob.status.fault) && !fe(&oa.status.fault);
                 self.diverged = Some(t);
             }
             return;
         }
         self.compared_ticks += 1;
+        // The fixed-point kernel does not drive the arm: after a split its
+        // path and the arm (driven by the f32 kernel) can drift apart by
+        // more than the following-error bound. That ends the case too.
+        let fe = |o: &Option<kernel::Fault>| matches!(o, Some(f) if matches!(f.reason, kernel::FaultReason::FollowingError { .. }));
+        if self.splits > 0 && oa.status.state != ob.status.state && fe(&ob.status.fault) && !fe(&oa.status.fault) {
+            self.diverged = Some(t);
+            self.follower_fe = true;
+            return;
+        }
         assert_eq!(
             oa.status.state, ob.status.state,
             "differential: states differ at tick {t}: f32 {:?} fx {:?}\n f32 events {:?}\n fx events {:?}",
