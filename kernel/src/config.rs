@@ -164,6 +164,19 @@ impl JointConfig {
     pub const fn braking_distance(&self, v: f32) -> f32 {
         v * v / (2.0 * self.max_acceleration)
     }
+    /// The set-points' acceleration limit (rad/s^2): a fraction of the
+    /// output's ([`SETPOINT_ACCEL_FRACTION`]), so the control law keeps some
+    /// authority to correct the joint while the set-point accelerates at
+    /// its limit (with none left, a reversal let the joint lag its set-point
+    /// by more than half the following-error bound: found by the property
+    /// tests).
+    pub const fn setpoint_acceleration(&self) -> f32 {
+        self.max_acceleration * SETPOINT_ACCEL_FRACTION
+    }
+    /// Distance (rad) a set-point needs to stop from `v` (rad/s).
+    pub const fn setpoint_braking_distance(&self, v: f32) -> f32 {
+        v * v / (2.0 * self.setpoint_acceleration())
+    }
     /// Largest travel of a homing phase other than the fast seek (rad):
     /// back-off or release (switch travel, the back-off and the braking
     /// distance), or the slow seek back over them.
@@ -283,6 +296,9 @@ impl Validated {
 
 /// Upper bound of segment lengths, in ticks.
 pub const MAX_SEGMENT_TICKS: u32 = 256;
+/// The set-points accelerate at this fraction of the output's limit
+/// (`JointConfig::setpoint_acceleration`).
+pub const SETPOINT_ACCEL_FRACTION: f32 = 0.8;
 /// Output speed (rad/s) at or below which a joint whose set-point is at rest
 /// counts as holding, not moving (the command timeout holds instead of
 /// latching; a link loss or `<HOME>` needs no stop). A joint holding its

@@ -86,11 +86,22 @@ pub struct AxisHoming<S> {
     origin: S,
     /// Ticks at rest in Settle.
     rest: u32,
+    /// A tighter fast-seek travel bound for this run (a joint homed
+    /// before), if any.
+    fast_bound: Option<S>,
 }
 
 impl<S: Scalar> Default for AxisHoming<S> {
     fn default() -> Self {
-        AxisHoming { phase: Phase::Idle, anchor: None, ticks: 0, vel: S::ZERO, origin: S::ZERO, rest: 0 }
+        AxisHoming {
+            phase: Phase::Idle,
+            anchor: None,
+            ticks: 0,
+            vel: S::ZERO,
+            origin: S::ZERO,
+            rest: 0,
+            fast_bound: None,
+        }
     }
 }
 
@@ -109,6 +120,11 @@ impl<S: Scalar> AxisHoming<S> {
         if self.phase == Phase::Waiting {
             self.enter(Phase::FastSeek, x);
         }
+    }
+    /// Bounds this run's fast seek to `bound` (rad) if that is tighter than
+    /// the configured bound.
+    pub fn limit_travel(&mut self, bound: S) {
+        self.fast_bound = Some(bound);
     }
     /// The velocity of the last tick.
     pub fn velocity(&self) -> S {
@@ -155,7 +171,8 @@ impl<S: Scalar> AxisHoming<S> {
             self.vel = S::ZERO;
             return out;
         }
-        let bound = if self.phase == Phase::FastSeek { p.max_travel } else { p.phase_travel };
+        let fast = self.fast_bound.map_or(p.max_travel, |b| b.min(p.max_travel));
+        let bound = if self.phase == Phase::FastSeek { fast } else { p.phase_travel };
         if x.minus(self.origin).abs() > bound {
             out.too_far = Some(self.phase);
             self.vel = S::ZERO;

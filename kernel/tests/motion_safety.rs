@@ -34,6 +34,7 @@ both!(
     link_loss_at_rest_holds,
     link_loss_during_homing_fails_the_run,
     runs_at_500_hz_and_2_khz,
+    rehoming_a_dead_switch_stops_just_past_the_switch,
 );
 
 fn homed<S: Scalar>() -> Rig<S> {
@@ -362,8 +363,9 @@ fn runs_at_500_hz_and_2_khz<S: Scalar>() {
         assert!((r.plant.q[0] - p[0]).abs() < 0.01);
         assert_eq!(r.k.state(), State::Operational);
         println!("{hz} Hz: homed in {home_s:.2} s, 0.6 rad go-to in {arrive_ms:.0} ms");
-        // 0.6 rad at 3 rad/s and 30 rad/s^2: 0.3 s, whatever the rate.
-        assert!((290.0..=320.0).contains(&arrive_ms), "{hz} Hz: {arrive_ms} ms");
+        // 0.6 rad at 3 rad/s and 24 rad/s^2 (the set-points' share of J1's
+        // 30): 0.325 s, whatever the rate.
+        assert!((315.0..=340.0).contains(&arrive_ms), "{hz} Hz: {arrive_ms} ms");
         // An interrupted stream latches 100 ms after its last sample.
         let mut q = r.plant.q;
         for _ in 0..10 {
@@ -375,4 +377,29 @@ fn runs_at_500_hz_and_2_khz<S: Scalar>() {
         let t_ms = f64::from(t) * 1000.0 / f64::from(hz);
         assert!((95.0..=110.0).contains(&t_ms), "{hz} Hz: soft stop after {t_ms} ms");
     }
+}
+
+/// A joint homed before knows where its switch is: re-homing with a dead
+/// switch (the ROS 2 driver sends `<HOME>` on every activation) stops just
+/// past the switch, not a whole range later (the configured bound is for a
+/// joint that may start anywhere: 12.7 rad on J6).
+fn rehoming_a_dead_switch_stops_just_past_the_switch<S: Scalar>() {
+    let mut r = homed::<S>();
+    let mut p = r.plant.q;
+    p[5] -= 3.0;
+    r.goto(p);
+    r.run(2_000);
+    r.plant.dead_switch = 0b10_0000;
+    r.tick(Some(Request::Home));
+    r.run_until(60_000, |o| o.status.state != State::Homing).unwrap();
+    let out = r.last.unwrap();
+    assert_eq!(
+        out.status.fault.unwrap().reason,
+        FaultReason::HomingTravel { axis: 5, phase: kernel::homing::Phase::FastSeek }
+    );
+    let j = &PAROL6.joints[5];
+    let past = r.plant.q[5] - f64::from(j.homing.switch_position);
+    let allowed = 0.1 + f64::from(j.braking_distance(j.homing.fast_speed)) + 0.01;
+    println!("J6 re-homed with a dead switch: stopped {past:.3} rad past it (allowed {allowed:.3})");
+    assert!(past <= allowed, "{past}");
 }

@@ -178,13 +178,19 @@ fn interpolator<S: Sym>() {
     let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
     assert!(vel2.abs() <= k.vmax.plus(slack), "speed above the limit");
     assert!(vel2.minus(vel).abs() <= k.dv.plus(slack), "acceleration above the limit");
-    // Approaching: moving toward the target, or at rest on it. (A set-point
-    // moving away from a target that was moved behind it decelerates
-    // through it: that overshoot is inside the earlier target's braking.)
+    // Approaching a target it can stop at: moving toward it (or at rest on
+    // it) with the braking distance from its speed (plus one tick's travel)
+    // inside the distance left. Such a set-point never passes the target.
+    // (A target placed inside the braking distance is passed and met again
+    // from the other side: that overshoot stays inside the earlier target's
+    // braking distance; the kernel's tests bound it.)
+    let dist = to.minus(sp).abs();
     let approaching = (to > sp && vel >= S::ZERO) || (to < sp && vel <= S::ZERO) || (to == sp && vel == S::ZERO);
-    if approaching {
+    let reach = vel.times(vel).times(k.inv_2a).plus(vel.abs().times(k.dt)).plus(k.eps) <= dist;
+    kani::cover!(approaching && !reach, "a target inside the braking distance");
+    if approaching && (reach || vel == S::ZERO) {
         kani::cover!(sp2 == to, "lands exactly");
-        assert!(sp2.minus(sp).abs() <= to.minus(sp).abs(), "passed the target");
+        assert!(sp2.minus(sp).abs() <= dist, "passed the target");
     }
 }
 

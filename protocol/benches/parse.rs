@@ -2,7 +2,7 @@
 //! throughput (bytes of input per second); nothing is asserted.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use kernel::config::{PAROL6, PAROL6_VALIDATED};
+use kernel::config::PAROL6_VALIDATED;
 use kernel::Fx;
 use protocol::receiver::Receiver;
 use protocol::{DialectLock, Parser, ProtocolConfig};

@@ -58,12 +58,14 @@ impl<S: Scalar> Axis<S> {
         self.fe_count = 0;
     }
     /// Following error against the commanded path: farther than `fe`, or
-    /// more than half of it behind while moving away from the path, for
-    /// more than `fe_ticks` ticks is a fault.
-    fn following(&mut self, axis: u8, k: &Params<S>, fault: &mut Option<FaultReason>) {
+    /// more than half of it off while moving against the command applied
+    /// last tick (`cmd`), for more than `fe_ticks` ticks is a fault.
+    fn following(&mut self, axis: u8, cmd: S, k: &Params<S>, fault: &mut Option<FaultReason>) {
         let e = self.path.minus(self.obs.x);
         let v = self.obs.v;
-        let away = (e > k.fe_half && v < k.fe_min_speed.neg()) || (e < k.fe_half.neg() && v > k.fe_min_speed);
+        let min = k.fe_min_speed;
+        let against = (cmd > min && v < min.neg()) || (cmd < min.neg() && v > min);
+        let away = e.abs() > k.fe_half && against;
         let bad = e.abs() > k.fe || away;
         self.fe_count = if bad { self.fe_count.saturating_add(1) } else { 0 };
         if self.fe_count > k.fe_ticks {
@@ -142,6 +144,19 @@ impl<S: Scalar> Axis<S> {
         }
     }
 
+    /// Control for this axis in Stopping: the set-point keeps braking to
+    /// its target; the control law's command, which the ramp envelope then
+    /// bounds. The commanded path is the integral of the outputs here.
+    pub(super) fn brake(&mut self, axis: u8, p: &AxisParams<S>, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
+        let sp = self.interp.setpoint();
+        let (_, ff) = self.interp.advance(&p.profile);
+        let (v, ok) = control_law(sp, ff, self.obs.x, p.kp, p.vmax, k.deadband);
+        if !ok {
+            fault.get_or_insert(FaultReason::Numeric { axis });
+        }
+        v
+    }
+
     /// Control for this axis in Operational: interpolate, control law,
     /// saturate, then limit the change from `prev` (last tick's output).
     fn follow(&mut self, axis: u8, p: &AxisParams<S>, prev: S, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
@@ -180,7 +195,7 @@ impl<S: Scalar> Kernel<S> {
                 ax.path = ax.path.plus(prev.times(k.gains.dt));
             }
             if ax.ready && !ax.needs_reinit {
-                ax.following(i as u8, k, fault);
+                ax.following(i as u8, *prev, k, fault);
             }
         }
     }

@@ -46,9 +46,18 @@ impl<S: Scalar> Kernel<S> {
 
     /// Starts the run (the mode allows it: checked by the caller).
     pub(super) fn begin_homing(&mut self, mask: u8) {
+        let was_homed = self.homed;
         self.homed &= !mask;
-        for (i, ax) in self.axes.iter_mut().enumerate() {
+        for (i, (ax, p)) in self.axes.iter_mut().zip(self.p.axes.iter()).enumerate() {
             ax.homing.reset(mask & bit(i) != 0);
+            // A joint homed before this run knows where its switch is: its
+            // fast seek may travel only to the switch plus the margin (the
+            // configured bound, range + switch distance, is for a joint
+            // that may start anywhere).
+            if was_homed & bit(i) != 0 {
+                let to_switch = p.switch_position.minus(ax.obs.x).abs().plus(p.rehome_margin);
+                ax.homing.limit_travel(to_switch);
+            }
         }
         self.resync();
         self.run_mask = mask;

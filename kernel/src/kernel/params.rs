@@ -77,6 +77,9 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub max_jump: i32,
     pub jump_per_tick: i32,
     pub switch_position: S,
+    /// Re-homing a homed joint: fast-seek travel allowed beyond the known
+    /// distance to its switch (rad): 0.1 rad plus the braking distance.
+    pub rehome_margin: S,
     pub homing: HomingParams<S>,
     /// The set-point profile (acceleration and speed limits).
     pub profile: Profile<S>,
@@ -105,6 +108,7 @@ impl<S: Scalar> AxisParams<S> {
             max_jump: j.max_jump_counts(c.tick_hz),
             jump_per_tick: j.jump_window_counts(c.tick_hz, 2).saturating_sub(j.max_jump_counts(c.tick_hz)),
             switch_position: S::from_f32(j.homing.switch_position),
+            rehome_margin: S::from_f32(0.1 + j.braking_distance(j.homing.fast_speed)),
             homing: HomingParams {
                 fast_toward: S::from_f32(j.homing.fast_speed * dir),
                 slow_toward: S::from_f32(j.homing.slow_speed * dir),
@@ -115,9 +119,9 @@ impl<S: Scalar> AxisParams<S> {
                 phase_travel: S::from_f32(j.homing_phase_travel()),
                 settle_ticks: ms_to_ticks(c.homing_settle_ms, c.tick_hz),
             },
-            profile: profile(j.max_velocity, j.max_acceleration, c.tick_hz),
+            profile: profile(j.max_velocity, j.setpoint_acceleration(), c.tick_hz),
             max_jump_rad: S::from_f32(
-                j.max_velocity * seg_s + j.braking_distance(j.max_velocity) + c.target_jump_tolerance,
+                j.max_velocity * seg_s + j.setpoint_braking_distance(j.max_velocity) + c.target_jump_tolerance,
             ),
         }
     }

@@ -32,11 +32,14 @@ pub(super) enum Mode<S> {
     Homing,
     Operational,
     /// The soft-stop ramp at tick `k` from outputs `v0`; `then_home`: the
-    /// joints to home when it ends (0: latch SoftEstop).
+    /// joints to home when it ends (0: latch SoftEstop); `track`: the joints
+    /// keep following their braking set-points inside the ramp (entered
+    /// from Operational; from Homing the set-points mean nothing).
     Stopping {
         k: u32,
         v0: [S; AXES],
         then_home: u8,
+        track: bool,
     },
     SoftEstop,
     Fault,
@@ -88,18 +91,21 @@ impl<S: Scalar> Kernel<S> {
     pub(super) fn transition(&mut self, edge: Edge) -> State {
         let next = match (edge, self.mode) {
             (Edge::Ready, Mode::Boot) => Mode::Unhomed,
-            (Edge::Timeout, Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out, then_home: 0 },
-            (Edge::LinkLost, Mode::Operational | Mode::Homing) => {
-                Mode::Stopping { k: 0, v0: self.last_out, then_home: 0 }
+            (Edge::Timeout, Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out, then_home: 0, track: true },
+            (Edge::LinkLost, Mode::Operational) => {
+                Mode::Stopping { k: 0, v0: self.last_out, then_home: 0, track: true }
             }
-            (Edge::LinkLost, Mode::Stopping { k, v0, .. }) => Mode::Stopping { k, v0, then_home: 0 },
-            (Edge::StopToHome(mask), Mode::Operational) => Mode::Stopping { k: 0, v0: self.last_out, then_home: mask },
-            (Edge::RampTick, Mode::Stopping { k, v0, then_home }) => {
+            (Edge::LinkLost, Mode::Homing) => Mode::Stopping { k: 0, v0: self.last_out, then_home: 0, track: false },
+            (Edge::LinkLost, Mode::Stopping { k, v0, track, .. }) => Mode::Stopping { k, v0, then_home: 0, track },
+            (Edge::StopToHome(mask), Mode::Operational) => {
+                Mode::Stopping { k: 0, v0: self.last_out, then_home: mask, track: true }
+            }
+            (Edge::RampTick, Mode::Stopping { k, v0, then_home, track }) => {
                 let k = k.saturating_add(1);
                 if k >= self.p.stop_ticks && then_home == 0 {
                     Mode::SoftEstop
                 } else {
-                    Mode::Stopping { k: k.min(self.p.stop_ticks), v0, then_home }
+                    Mode::Stopping { k: k.min(self.p.stop_ticks), v0, then_home, track }
                 }
             }
             (Edge::StartHoming, Mode::Unhomed | Mode::Operational) => Mode::Homing,
@@ -241,8 +247,8 @@ impl<S: Scalar> Kernel<S> {
             Mode::Homing => homing_event = self.home_step(limits, &mut out, fault),
             _ => {}
         }
-        if let Mode::Stopping { k, v0, then_home } = self.mode {
-            self.ramp(k.saturating_add(1), &v0, &mut out);
+        if let Mode::Stopping { k, v0, then_home, track } = self.mode {
+            self.ramp(k.saturating_add(1), &v0, track, &mut out, fault);
             if then_home != 0 && k.saturating_add(1) >= self.p.stop_ticks {
                 // The stop before a requested homing is complete.
                 self.transition(Edge::RampTick);
@@ -266,16 +272,24 @@ impl<S: Scalar> Kernel<S> {
         out
     }
 
-    /// Soft E-stop ramp: `v0 * (N - k) / N`, never above the previous output
-    /// in magnitude, exactly zero from `k = N` on.
-    fn ramp(&self, k: u32, v0: &[S; AXES], out: &mut [S; AXES]) {
+    /// Soft E-stop ramp. The envelope is `v0 * (N - k) / N`, never above
+    /// the previous output in magnitude, exactly zero from `k = N` on; inside
+    /// it each joint keeps following its set-point, which brakes to its
+    /// target (the set-points are acceleration-limited and stop *at* their
+    /// targets), so a stop that starts while a set-point is still braking
+    /// ends where the set-point ends, not a ramp's length beyond it.
+    fn ramp(&mut self, k: u32, v0: &[S; AXES], track: bool, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
         let n = self.p.stop_ticks;
         let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
         let scale = self.p.inv_stop.times_int(left).min(S::ONE).max(S::ZERO);
-        for ((o, v), prev) in out.iter_mut().zip(v0.iter()).zip(self.last_out.iter()) {
-            let r = v.times(scale).clamp_between(S::ZERO, *prev);
-            let r = S::select(r.is_finite(), r, S::ZERO);
-            *o = S::select(k >= n, S::ZERO, r);
+        let kp = &self.p;
+        let axes =
+            self.axes.iter_mut().zip(kp.axes.iter()).zip(out.iter_mut()).zip(v0.iter()).zip(self.last_out.iter());
+        for (i, ((((ax, p), o), v), prev)) in axes.enumerate() {
+            let env = v.times(scale).clamp_between(S::ZERO, *prev);
+            let env = S::select(env.is_finite(), env, S::ZERO);
+            let follow = if track { ax.brake(i as u8, p, kp, fault) } else { env };
+            *o = S::select(k >= n, S::ZERO, follow.clamp_between(S::ZERO, env));
         }
     }
 

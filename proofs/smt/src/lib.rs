@@ -1,0 +1,127 @@
+//! SMT proofs of the kernel's generic per-axis code.
+//!
+//! `kernel::Scalar` is implemented for two symbolic types ([`sym::SymF32`]:
+//! IEEE binary32; [`sym::SymFx`]: `I8F24` as a 32-bit bit-vector with the
+//! `fixed` crate's saturation and rounding) whose values are z3 terms. The
+//! kernel's own generic functions (`Scalar::saturate`,
+//! `Scalar::clamp_between`, `control::control_law`, `AlphaBeta::step` /
+//! `coast`, `Interpolator::advance` with `interp::profile`) run on them
+//! unchanged; every `bool` they branch on is a path decision
+//! ([`ctx`]), and each property is checked by z3 on every feasible path:
+//! proved for all inputs, NaN and infinities included.
+//!
+//! The semantics of every symbolic operation are checked against `f32`
+//! and `I8F24` in `tests/semantics.rs`; `tests/broken.rs` shows that
+//! broken functions fail. See `README.md`.
+
+pub mod ctx;
+pub mod props;
+pub mod sym;
+pub mod z3;
+
+use ctx::Outcome;
+use kernel::Fx;
+use sym::{Sym, SymF32, SymFx, B};
+
+/// One proof obligation.
+#[derive(Clone, Debug)]
+pub struct Proof {
+    /// What is proved.
+    pub name: &'static str,
+    /// `f32` or `I8F24`.
+    pub variant: &'static str,
+    /// The joints whose constants this instance uses (empty: none).
+    pub joints: Vec<usize>,
+    /// Builds the property (inputs, preconditions, kernel code).
+    pub build: fn(usize) -> B,
+}
+
+impl Proof {
+    /// `J1,J2`-style label of the joints covered.
+    pub fn joints_label(&self) -> String {
+        if self.joints.is_empty() {
+            return "-".to_string();
+        }
+        self.joints.iter().map(|j| format!("J{}", j + 1)).collect::<Vec<_>>().join(",")
+    }
+
+    /// Runs the proof in a fresh z3.
+    pub fn run(&self) -> Outcome {
+        let j = self.joints.first().copied().unwrap_or(0);
+        let build = self.build;
+        ctx::session(|| ctx::explore(|| build(j).0))
+    }
+}
+
+/// Joints grouped by equal `key` (in joint order): one proof per group
+/// covers every joint in it, since the proven function sees only the
+/// constants the key compares.
+fn groups<K: PartialEq>(key: impl Fn(usize) -> K) -> Vec<Vec<usize>> {
+    let mut out: Vec<(K, Vec<usize>)> = Vec::new();
+    for j in 0..kernel::config::AXES {
+        let k = key(j);
+        match out.iter_mut().find(|(g, _)| *g == k) {
+            Some((_, v)) => v.push(j),
+            None => out.push((k, vec![j])),
+        }
+    }
+    out.into_iter().map(|(_, v)| v).collect()
+}
+
+fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
+    let v = S::VARIANT;
+    let one = |name, build| Proof { name, variant: v, joints: Vec::new(), build };
+    out.push(one("saturate", |_| props::saturate::<S>(|x, l| x.saturate(l))));
+    out.push(one("clamp_between", |_| props::clamp_between::<S>()));
+    // The control law sees (kp, vmax, deadband); group joints by their
+    // concrete values in this variant.
+    for joints in groups(|j| {
+        let jc = &props::CONFIG.joints[j];
+        (jc.kp.to_bits(), jc.max_velocity.to_bits(), props::CONFIG.deadband.to_bits())
+    }) {
+        out.push(Proof { name: "control_law", variant: v, joints, build: |j| props::control::<S>(j) });
+    }
+    out.push(one("observer step: never absorbs NaN/inf", |_| props::observer_non_finite::<S>(false)));
+    out.push(one("observer coast: never absorbs NaN/inf", |_| props::observer_non_finite::<S>(true)));
+    out.push(one("observer coast: bounded move", |_| props::observer_coast::<S>(1e-5)));
+}
+
+/// Every proof, for both variants.
+pub fn all() -> Vec<Proof> {
+    let mut out = Vec::new();
+    per_variant::<SymF32>(&mut out);
+    per_variant::<SymFx>(&mut out);
+    out.push(Proof {
+        name: "observer step: between prediction and measurement (+-1e-5, plausible state)",
+        variant: SymF32::VARIANT,
+        joints: Vec::new(),
+        build: |_| props::observer_between::<SymF32>(1e-5, false),
+    });
+    out.push(Proof {
+        name: "observer step: between prediction and measurement (exact, every input)",
+        variant: SymFx::VARIANT,
+        joints: Vec::new(),
+        build: |_| props::observer_between::<SymFx>(0.0, true),
+    });
+    // The interpolator sees its profile only: group joints by the concrete
+    // profile of each variant.
+    let profile_f32 = |j| props::joint_profile::<f32>(j);
+    let profile_fx = |j| props::joint_profile::<Fx>(j);
+    for joints in groups(profile_f32) {
+        out.push(Proof {
+            name: "interpolator step",
+            variant: SymF32::VARIANT,
+            joints,
+            build: |j| props::interpolator::<SymF32>(j),
+        });
+    }
+    for joints in groups(profile_fx) {
+        out.push(Proof {
+            name: "interpolator step",
+            variant: SymFx::VARIANT,
+            joints,
+            build: |j| props::interpolator::<SymFx>(j),
+        });
+    }
+    out
+}
