@@ -297,9 +297,9 @@ pub struct Stats {
     /// `<HOME>` accepted while moving (a stop first, `HomingAfterStop`).
     pub homes_after_stop: u64,
     /// Targets accepted inside the set-point's braking distance, in its
-    /// direction of motion (SR-27's acceleration bound cannot hold with
-    /// "never past the target": not judged until the axis rests; see
-    /// [`Monitor`]).
+    /// direction of motion, per axis (SR-27's "never past the target"
+    /// cannot hold with its acceleration bound: the passing is bounded
+    /// instead until the axis rests; see `Monitor::check_setpoints`).
     pub infeasible_retargets: u64,
     /// Ticks with a broken motor (stalled or reversed) on some joint.
     pub broken_motor_ticks: u64,
@@ -1374,16 +1374,14 @@ impl<S: Scalar> Monitor<S> {
     ///
     /// Not judged: the tick Operational is entered (the set-points are
     /// resynchronised to the estimates, at rest: the next tick's change is
-    /// judged from zero), and the acceleration of an axis given a target
-    /// inside its braking distance in its direction of motion (from its
-    /// measured set-point velocity `v`: closer than `v^2 / 2a' + 2 |v| / tick_hz`
-    /// with `a' = PROFILE_DECEL_MIN * max_acceleration`):
-    /// there the acceleration bound and "never past the target" cannot
-    /// both hold (neither is judged; the overshoot is bounded, above).
-    /// Such an axis is judged again
-    /// once its set-point has rested at its target for `vmax / dv + 2`
-    /// ticks (any hidden profile velocity has decayed by then); each is
-    /// counted in [`Stats::infeasible_retargets`].
+    /// judged from zero). For an axis given a target inside its braking
+    /// distance in its direction of motion (from its measured set-point
+    /// velocity `v`: closer than `v^2 / 2a' + 2 |v| / tick_hz` with
+    /// `a' = PROFILE_DECEL_MIN * max_acceleration`) "never past the target"
+    /// cannot hold together with the acceleration bound: the acceleration
+    /// bound is kept, the passing is bounded as above, until its set-point
+    /// has rested at its target for `vmax / dv + 2` ticks; each such target
+    /// is counted in [`Stats::infeasible_retargets`].
     fn check_setpoints(
         &mut self,
         out: &TickOutput<S>,
@@ -1471,7 +1469,7 @@ impl<S: Scalar> Monitor<S> {
                         .bound(r),
                 )?;
             }
-            if let (Some(pv), false) = (pv, self.infeasible & bit(i) != 0) {
+            if let Some(pv) = pv {
                 let bound = dv + (dv / 256.0).max(1e-4) + 4.0 * ulp * hz;
                 let change = (*v - pv).abs();
                 ensure_ok(

@@ -9,6 +9,11 @@
 //!   the same acceleration, so the control law has no authority left to
 //!   correct the lag; the estimate's velocity lags the joint's, so "more
 //!   than half the bound behind while moving away" holds for 20 ms.
+//! * `no_following_error_after_an_enable_that_follows_a_stop_at_speed`:
+//!   the enable resynchronises the set-points to estimates still moving
+//!   after an abrupt stop; they drift apart and FOLLOWING_ERROR trips.
+//! * `setpoint_acceleration_within_its_bound_fx`: a set-point velocity
+//!   change of 0.0622 rad/s in a tick (bound 0.0612).
 //! * `a_target_inside_the_braking_distance_is_treated_alike_both_ways`: a
 //!   stream sample just ahead of a fast set-point (closer than its braking
 //!   distance). Approached upward the set-point stops dead on it (a
@@ -21,7 +26,7 @@
 
 use kernel::config::PAROL6;
 use kernel::{Fx, MotionKind, MotionTarget, Request, State};
-use proptests::scenario::{run_step, Start, Step, Sut, Variant};
+use proptests::scenario::{run_step, Bad, Pair, Start, Step, Sut, Variant};
 
 fn replay<S: Variant>(steps: &[Step]) {
     let mut s = Sut::<S>::new(&Start::Homed);
@@ -51,6 +56,56 @@ fn no_following_error_on_a_clean_plant_f32() {
 #[test]
 fn no_following_error_on_a_clean_plant_fx() {
     replay::<Fx>(&reversal());
+}
+
+/// A fast stream toward the lower limits, then a limit switch (a fault:
+/// the outputs drop to zero at once), an enable right after the switch is
+/// released, and silence. The enable resynchronises the set-points to the
+/// estimates while the estimates still move (the observer's velocity
+/// decays after the abrupt stop), so the estimates drift from the
+/// set-points and `FOLLOWING_ERROR` trips with nothing injected since the
+/// resynchronisation (f32, J3; shrunk from the state machine).
+#[test]
+fn no_following_error_after_an_enable_that_follows_a_stop_at_speed() {
+    let z = [0.0; 6];
+    replay::<f32>(&[
+        Step::Stream { goal: z, vel: z, period: 8, count: 3 },
+        Step::LimitHit { mask: 1, ticks: 7 },
+        Step::Enable(0),
+        Step::Silence(90),
+    ]);
+}
+
+/// Go-tos and streams in turn (shrunk from the differential run, whose
+/// samples follow the arm the f32 kernel drives): the fixed-point set-point
+/// of J5 changes its velocity by 0.0622 rad/s in one tick, above
+/// `max_acceleration / tick_hz` (0.06) plus the landing allowance and
+/// rounding (0.0612): SR-27. (The profile depends on the targets only; the
+/// pair is needed to reproduce these targets.)
+#[test]
+fn setpoint_acceleration_within_its_bound_fx() {
+    let z = [0.0; 6];
+    let mut pair = Pair::new(&Start::Homed, 0.05, 1e-3);
+    for st in &[
+        Step::Stream { goal: [0.0, 0.0, 0.0, 0.0, 0.840_646_885_082_405_4, 0.0], vel: z, period: 8, count: 3 },
+        Step::GoTo {
+            goal: [0.342_021_178_259_337_2, 0.0, 0.0, 0.998_820_097_286_460_6, 0.642_916_711_977_528_1, 0.0],
+            wait: 306,
+        },
+        Step::GoTo { goal: z, wait: 26 },
+        Step::Stream {
+            goal: [0.0, 0.0, 0.0, 0.818_473_697_858_016_7, 0.0, 0.480_933_292_197_845_2],
+            vel: z,
+            period: 24,
+            count: 8,
+        },
+        Step::Silence(43),
+        Step::BadMotion { axis: 0, bad: Bad::OutOfLimits(0.001), idle: 5 },
+        Step::GoTo { goal: [0.0, 0.0, 0.0, 0.0, 0.749_324_751_295_564_6, 0.0], wait: 19 },
+        Step::Stream { goal: z, vel: z, period: 16, count: 14 },
+    ] {
+        run_step(&mut pair, st);
+    }
 }
 
 /// J1 streamed at 2.5 rad/s (a sample every 10 ms), then a sample 10 mrad
