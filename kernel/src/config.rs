@@ -488,6 +488,8 @@ pub const fn check(c: &ArmConfig) -> Result<(), &'static str> {
         total += worst as u64;
         g += 1;
     }
+    // The run rests for the settle time before it moves.
+    let total = total + c.homing_settle_ms as u64;
     if total > c.homing_budget_ms as u64 {
         return Err("homing can take longer than the driver waits (sum of group timeouts > homing_budget_ms)");
     }

@@ -125,7 +125,10 @@ impl<S: Scalar> Interpolator<S> {
         // met: the set-point decelerates through it at `dv` per tick and
         // comes back, staying inside the earlier target's braking distance.
         let step = c.times(k.dt);
-        let reachable = Self::can_stop(c, dist.plus(k.dv.times(k.dt)), k);
+        // (Rounding is within `eps`, already inside the test's margin; a
+        // wider tolerance would clamp a set-point that is really late and
+        // leave it parked with a velocity.)
+        let reachable = Self::can_stop(c, dist.plus(k.eps), k);
         let step = S::select(c >= S::ZERO && reachable, step.min(dist), step);
         let moved = S::select(negative, self.sp.minus(step), self.sp.plus(step));
         let vel = S::select(negative, c.neg(), c);

@@ -50,6 +50,8 @@ pub struct Kernel<S: Scalar> {
     /// Joints of the current homing run, and the group being homed.
     run_mask: u8,
     run_group: usize,
+    /// Ticks left to rest before a homing run moves (the settle time).
+    home_wait: u32,
     /// `<HOME>` received while booting, started when boot completes.
     home_queued: bool,
     homed: u8,
@@ -86,6 +88,7 @@ impl<S: Scalar> Kernel<S> {
             homing_status: HomingStatus::NotRequested,
             run_mask: 0,
             run_group: 0,
+            home_wait: 0,
             home_queued: false,
             homed: 0,
             tick: 0,
@@ -224,6 +227,7 @@ impl<S: Scalar + core::hash::Hash> core::hash::Hash for Kernel<S> {
         self.homing_status.hash(h);
         self.run_mask.hash(h);
         self.run_group.hash(h);
+        self.home_wait.hash(h);
         self.home_queued.hash(h);
         self.homed.hash(h);
         self.boot_ticks.hash(h);

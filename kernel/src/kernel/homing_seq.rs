@@ -62,6 +62,7 @@ impl<S: Scalar> Kernel<S> {
         self.resync();
         self.run_mask = mask;
         self.run_group = 0;
+        self.home_wait = self.p.home_wait_ticks;
         self.transition(Edge::StartHoming);
         self.homing_status = HomingStatus::InProgress;
         self.armed = false;

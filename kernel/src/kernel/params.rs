@@ -67,6 +67,9 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub kp: S,
     /// Largest velocity change per tick in Operational.
     pub accel_step: S,
+    /// Largest velocity change per tick in a soft stop: vmax / N (at most
+    /// `accel_step`: `config::check`).
+    pub stop_step: S,
     pub pos_lo: S,
     pub pos_hi: S,
     pub k_count: S::Wide,
@@ -100,6 +103,7 @@ impl<S: Scalar> AxisParams<S> {
             runaway: S::from_f32(j.runaway_velocity),
             kp: S::from_f32(j.kp),
             accel_step: S::from_f32(j.max_acceleration / c.tick_hz as f32),
+            stop_step: S::from_f32(j.max_velocity / ms_to_ticks(c.soft_stop_ms, c.tick_hz).max(1) as f32),
             pos_lo: S::from_f32(j.limit_min - c.position_margin),
             pos_hi: S::from_f32(j.limit_max + c.position_margin),
             k_count: S::wide_from_f64(j.rad_per_count()),
@@ -141,6 +145,8 @@ pub(crate) struct Params<S: Scalar> {
     pub seg_min: u32,
     pub seg_max: u32,
     pub boot_ticks: u32,
+    /// Ticks a homing run rests before it moves (the settle time).
+    pub home_wait_ticks: u32,
     /// Following-error bound (rad), half of it, and its time (ticks).
     pub fe: S,
     pub fe_half: S,
@@ -176,9 +182,12 @@ impl<S: Scalar> Params<S> {
             fe: S::from_f32(c.following_error),
             fe_half: S::from_f32(c.following_error * 0.5),
             fe_ticks: ms_to_ticks(c.following_error_ms, c.tick_hz),
-            fe_min_speed: S::from_f32(0.05),
+            // Direction is judged only at speed: near rest, the observer's
+            // velocity lags a reversal (a clean plant tripped it at 0.057 rad/s).
+            fe_min_speed: S::from_f32(0.2),
             hold_speed: S::from_f32(HOLD_SPEED),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
+            home_wait_ticks: ms_to_ticks(c.homing_settle_ms, c.tick_hz),
             invalid_limit: c.encoder_invalid_limit,
             pos_abs: S::from_f32(POSITION_ABS_MAX),
             vel_abs: S::from_f32(VELOCITY_ABS_MAX),

@@ -244,6 +244,15 @@ impl<S: Scalar> Kernel<S> {
                     self.follow(&mut out, fault);
                 }
             }
+            Mode::Homing if self.home_wait > 0 => {
+                // Rest before the run: the observer settles after a stop
+                // (its velocity lags a deceleration by tens of ms), then the
+                // commanded paths start from the settled estimates.
+                self.home_wait = self.home_wait.saturating_sub(1);
+                if self.home_wait == 0 {
+                    self.resync();
+                }
+            }
             Mode::Homing => homing_event = self.home_step(limits, &mut out, fault),
             _ => {}
         }
@@ -265,6 +274,7 @@ impl<S: Scalar> Kernel<S> {
         // set-point in Operational, the integral of the commands otherwise).
         match self.mode {
             Mode::Operational => self.following(false, fault),
+            Mode::Homing if self.home_wait > 0 => {}
             Mode::Homing | Mode::Stopping { .. } => self.following(true, fault),
             _ => {}
         }
@@ -288,7 +298,13 @@ impl<S: Scalar> Kernel<S> {
         for (i, ((((ax, p), o), v), prev)) in axes.enumerate() {
             let env = v.times(scale).clamp_between(S::ZERO, *prev);
             let env = S::select(env.is_finite(), env, S::ZERO);
-            let follow = if track { ax.brake(i as u8, p, kp, fault) } else { env };
+            // Following, the output may fall no faster than the ramp itself
+            // (vmax / N per tick).
+            let follow = if track {
+                ax.brake(i as u8, p, kp, fault).clamp_between(prev.minus(p.stop_step), prev.plus(p.stop_step))
+            } else {
+                env
+            };
             *o = S::select(k >= n, S::ZERO, follow.clamp_between(S::ZERO, env));
         }
     }
