@@ -308,12 +308,19 @@ fn halt() -> ! {
     }
 }
 
-#[panic_handler]
-fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+/// The last-resort stop shared by the panic handler, the HardFault handler
+/// and the default handler (issue 11 defect 5: cortex-m-rt's own HardFault
+/// and DefaultHandler are `loop {}` and left STEP pulsing until the watchdog
+/// reset): interrupts off, every STEP pin low (masked, counter stopped, pad
+/// switched to GPIO driven low), the marker for the next boot
+/// (`SelfTest(0x80)`), the LED on, then wait for the watchdog reset (the
+/// tick no longer feeds it: within 20 ms).
+fn fatal_stop() -> ! {
     cortex_m::interrupt::disable();
     // SAFETY: interrupts are disabled and this function never returns, so
-    // the drivers that own these peripherals never run again; the aliases
-    // are used for the STEP shutdown, the marker and the LED only.
+    // the drivers that own these peripherals never run again (the PIT
+    // handler cannot preempt a HardFault, nor run with PRIMASK set); the
+    // aliases are used for the STEP shutdown, the marker and the LED only.
     unsafe {
         let pwm1 = ral::pwm::PWM1::instance();
         let pwm2 = ral::pwm::PWM2::instance();
@@ -331,9 +338,26 @@ fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
         // 3. signal
         led_on(&io, &gpio2);
     }
-    // The tick no longer feeds the watchdog: the chip resets within 20 ms and
-    // boots into a latched fault (`SelfTest(0x80)`) with the LED on.
     loop {
         cortex_m::asm::nop();
     }
+}
+
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+    fatal_stop()
+}
+
+/// A HardFault (bus/usage/memory fault escalated, or a fault in a handler):
+/// stop stepping at once instead of cortex-m-rt's `loop {}`.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    fatal_stop()
+}
+
+/// Any exception or interrupt without a handler of its own (only the PIT
+/// interrupt is enabled; anything else reaching here is a fault).
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(_irqn: i16) -> ! {
+    fatal_stop()
 }
