@@ -446,6 +446,46 @@ impl Board {
         self.uart_sync();
     }
 
+    /// After a debug halt of `cycles`: the blocks that stop in debug mode
+    /// resume where they stopped (PIT if `MCR[FRZ]`, RTWDOG unless
+    /// `CS[DBG]`, CYCCNT always).
+    pub fn debug_halt_time_bases(&mut self, cycles: u64) {
+        if self.pit_mcr & 1 != 0 {
+            for ch in self.pit.iter_mut() {
+                ch.start += cycles;
+            }
+        }
+        if self.wdog.cs & (1 << 2) == 0 {
+            self.wdog.since += cycles;
+        }
+        self.cyccnt_off = self.cyccnt_off.wrapping_sub(cycles as u32);
+    }
+
+    /// Record every FlexPWM output's rising-edge times from now on.
+    pub fn record_edges(&mut self) {
+        self.sync();
+        for p in self.pwm.iter_mut() {
+            p.record = true;
+        }
+    }
+
+    /// The FlexPWM submodule log behind axis `i`'s STEP pin: (module,
+    /// submodule, log index) for a pad muxed to a PWM output, or for pin 7
+    /// routed through XBARA1 the trigger log.
+    pub fn step_source(&self, i: usize) -> Option<(usize, usize, usize)> {
+        let p = pads::teensy_pad(WIRING.step[i])?;
+        let (m, s, b, _) = pads::pwm_function(p)?;
+        Some((m, s, usize::from(b)))
+    }
+
+    /// Rising-edge times (cycles) recorded on axis `i`'s STEP pin.
+    pub fn step_rises(&self, i: usize) -> Vec<u64> {
+        match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].rises.clone(),
+            None => Vec::new(),
+        }
+    }
+
     // ------------------------------------------------------------ PIT
 
     fn pit_clock_cycles(&self) -> u64 {

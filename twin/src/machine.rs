@@ -273,6 +273,9 @@ impl Twin {
                 self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
             }
         }
+        // bring the peripherals and the plant up to the end time (a CPU
+        // spinning without MMIO accesses does not sync them)
+        self.board_mut().sync();
         Ok(())
     }
 
@@ -298,6 +301,72 @@ impl Twin {
             self.stats.pit_entries.push(now);
         }
         Ok(())
+    }
+
+    /// Take exception `vector` (vector-table index: 3 = HardFault, 16 + n
+    /// = IRQ n) now, as the core would on a fault: the context is saved
+    /// (the PIT is then not delivered, as a HardFault's priority -1 blocks
+    /// it), `LR` = `EXC_RETURN` 0xFFFF_FFF9 (thread mode, main stack, so
+    /// cortex-m-rt's HardFault trampoline passes the MSP frame), `PC` = the
+    /// image's own vector. The handlers under test never return.
+    pub fn take_exception(&mut self, vector: u32) -> Result<u32, Fault> {
+        let vtor = self.board().vtor;
+        let handler = read_u32(&self.uc, u64::from(vtor) + 4 * u64::from(vector)).map_err(|w| self.fault(w))?;
+        self.enter_at(handler, 0xFFFF_FFF9, &[])?;
+        Ok(handler)
+    }
+
+    /// Call the image's function `name` as if from the current context
+    /// (`r0..` = `args`; return to the sentinel, context restored then), e.g.
+    /// the panic handler `rust_begin_unwind`.
+    pub fn call_symbol(&mut self, name: &str, args: &[u32]) -> Result<u32, Fault> {
+        let Some(a) = self.symbol(name) else {
+            return Err(self.fault(format!("no symbol {name}")));
+        };
+        self.enter_at(a, (SENTINEL | 1) as u32, args)?;
+        Ok(a)
+    }
+
+    fn enter_at(&mut self, target: u32, lr: u32, args: &[u32]) -> Result<(), Fault> {
+        let e = |x: unicorn_engine::uc_error| format!("{x:?}");
+        if self.in_handler.is_some() {
+            return Err(self.fault("already in a handler".into()));
+        }
+        let mut ctx = self.uc.context_alloc().map_err(|x| self.fault(e(x)))?;
+        self.uc.context_save(&mut ctx).map_err(|x| self.fault(e(x)))?;
+        let sp = self.uc.reg_read(RegisterARM::SP).unwrap_or(0);
+        let nsp = (sp - 104) & !7;
+        let regs = [RegisterARM::R0, RegisterARM::R1, RegisterARM::R2, RegisterARM::R3];
+        let mut ok = self.uc.reg_write(RegisterARM::SP, nsp).is_ok()
+            && self.uc.reg_write(RegisterARM::LR, u64::from(lr)).is_ok();
+        for (r, &v) in regs.iter().zip(args) {
+            ok &= self.uc.reg_write(*r, u64::from(v)).is_ok();
+        }
+        if !ok {
+            return Err(self.fault("cannot enter the handler".into()));
+        }
+        self.next_pc = Some(u64::from(target & !1));
+        self.in_handler = Some(ctx);
+        Ok(())
+    }
+
+    /// A debugger halts the core for `cycles`: no instruction runs;
+    /// peripherals keep their clocks except where their debug-mode bits
+    /// say otherwise: FlexPWM submodules with `CTRL2[DBGEN] = 0` stop, the
+    /// PIT stops if `MCR[FRZ]`, the RTWDOG stops unless `CS[DBG]`, DWT
+    /// CYCCNT stops (the core's clock is held).
+    pub fn debug_halt(&mut self, cycles: u64) {
+        let b = self.board_mut();
+        b.sync();
+        for p in b.pwm.iter_mut() {
+            p.debug_halted = true;
+        }
+        b.now += cycles;
+        b.sync();
+        for p in b.pwm.iter_mut() {
+            p.debug_halted = false;
+        }
+        b.debug_halt_time_bases(cycles);
     }
 
     /// Address of a symbol.
