@@ -28,6 +28,18 @@
 //! `SMCTRL2[DBGEN] = 0`: the counters stop while a debugger halts the core
 //! (issue 11 defect 5), as the PIT and the watchdog do.
 //!
+//! An axis on an XBAR route ([`PwmRoute::Xbar`], J6 on pin 7 in the original
+//! wiring, issue 11 defect 8): `TCTRL[PWAOT0] = 1` makes PWM_A drive the
+//! submodule's `PWM_OUT_TRIG0`, which XBARA1 routes to the pad. The
+//! reference material does not say whether `MASK`/`OUTEN` act on the
+//! trigger path, so masking such an axis **selects XBARA1 input 0
+//! (`LOGIC_LOW`)** for its output (and sets `MASK` as well, harmless if it
+//! acts and needed nowhere else); unmasking selects the trigger input again.
+//! Both are combinational selections between a low input and the trigger:
+//! a stop can truncate a pulse in flight (as `MASK` does) but never makes an
+//! extra edge, and a restart unmasks right after `FORCE`, when the trigger is
+//! low (counter at `INIT`, the pulse sits at the end of the period).
+//!
 //! *Bench* (scope on STEP/DIR): that `UPDATE_MASK` masks immediately, the
 //! first period after a restart, and the DIR-to-STEP delay. Worst case ISR
 //! cost of a reversal: 900 cycles (1.5 us) once per call plus register
@@ -44,12 +56,14 @@
 use super::cycles::CycleCounter;
 use super::gpio::Gpios;
 use crate::pure::clock::{dir_settle_cycles, CPU_HZ, DIR_SETTLE_NS};
-use crate::pure::pins::{step_fn, teensy41_pin, FlexPwmFn, GpioBit, PinMap, PinMapError, PwmOutput};
+use crate::pure::pins::{
+    step_fn, teensy41_pin, FlexPwmFn, GpioBit, PinMap, PinMapError, PwmOutput, PwmRoute, XBAR_LOGIC_LOW,
+};
 use crate::pure::step::{
     compares, plan_update, AxisOutput, Direction, StepCommand, StepConfig, StepTiming, UpdatePlan,
 };
 use imxrt_ral as ral;
-use ral::pwm;
+use ral::{pwm, xbara1};
 
 const SETTLE_CYCLES: u32 = dir_settle_cycles(DIR_SETTLE_NS, CPU_HZ);
 
@@ -81,6 +95,7 @@ pub struct StepOutputs {
     pwm2: pwm::PWM2,
     pwm3: pwm::PWM3,
     pwm4: pwm::PWM4,
+    xbar: xbara1::XBARA1,
     axes: [Axis; 6],
 }
 
@@ -98,11 +113,12 @@ impl StepOutputs {
         pwm2: pwm::PWM2,
         pwm3: pwm::PWM3,
         pwm4: pwm::PWM4,
+        xbar: xbara1::XBARA1,
         gpios: &Gpios,
         map: &PinMap,
     ) -> Result<Self, PinMapError> {
         let mut axes = [Axis {
-            pwm: FlexPwmFn { module: 1, submodule: 0, output: PwmOutput::A, alt: 0 },
+            pwm: FlexPwmFn { module: 1, submodule: 0, output: PwmOutput::A, alt: 0, route: PwmRoute::Pad },
             dir: GpioBit { port: 1, bit: 0 },
             out: AxisOutput::INIT,
         }; 6];
@@ -113,10 +129,15 @@ impl StepOutputs {
             let Some(d) = teensy41_pin(dp) else {
                 return Err(PinMapError::UnknownPin(dp));
             };
+            if let PwmRoute::Xbar { inout, .. } = f.route {
+                if !(4..=19).contains(&inout) || f.output != PwmOutput::A {
+                    return Err(PinMapError::NotStepCapable(sp));
+                }
+            }
             a.pwm = f;
             a.dir = d.gpio;
         }
-        let this = Self { pwm1, pwm2, pwm3, pwm4, axes };
+        let this = Self { pwm1, pwm2, pwm3, pwm4, xbar, axes };
         for a in axes {
             gpios.write(a.dir, false);
             gpios.make_output(a.dir);
@@ -174,16 +195,43 @@ impl StepOutputs {
         ral::write_reg!(ral::pwm::sm, sm, SMVAL3, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL4, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL5, 0);
-        set_ldok(rb, bit); // loads when the counter first runs
-                           // output enable for our output only
+        set_ldok(rb, bit); // loads at the first reload (a restart loads its own)
+        if let PwmRoute::Xbar { .. } = f.route {
+            // PWM_A drives PWM_OUT_TRIG0 (towards XBARA1)
+            ral::write_reg!(ral::pwm::sm, sm, SMTCTRL, PWAOT0: 1);
+        }
+        // output enable for our output only
         match f.output {
             PwmOutput::A => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 8)),
             PwmOutput::B => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 4)),
         }
     }
 
+    /// Select XBARA1 `input` for output `out` (4..=19; `SELn` holds outputs
+    /// 2n and 2n + 1 in its low and high byte).
+    fn xbar_select(&self, out: u8, input: u8) {
+        let shift = if out & 1 == 0 { 0 } else { 8 };
+        let m = 0x7Fu16 << shift;
+        let v = u16::from(input & 0x7F) << shift;
+        let x = &self.xbar;
+        match out / 2 {
+            2 => ral::modify_reg!(ral::xbara1, x, SEL2, |r| (r & !m) | v),
+            3 => ral::modify_reg!(ral::xbara1, x, SEL3, |r| (r & !m) | v),
+            4 => ral::modify_reg!(ral::xbara1, x, SEL4, |r| (r & !m) | v),
+            5 => ral::modify_reg!(ral::xbara1, x, SEL5, |r| (r & !m) | v),
+            6 => ral::modify_reg!(ral::xbara1, x, SEL6, |r| (r & !m) | v),
+            7 => ral::modify_reg!(ral::xbara1, x, SEL7, |r| (r & !m) | v),
+            8 => ral::modify_reg!(ral::xbara1, x, SEL8, |r| (r & !m) | v),
+            9 => ral::modify_reg!(ral::xbara1, x, SEL9, |r| (r & !m) | v),
+            _ => {} // refused by `new`
+        }
+    }
+
     /// Mask (force low) or unmask the axis output immediately.
     fn mask(&self, f: FlexPwmFn, masked: bool) {
+        if let PwmRoute::Xbar { inout, input } = f.route {
+            self.xbar_select(inout, if masked { XBAR_LOGIC_LOW } else { input });
+        }
         let rb = self.block(f.module);
         let bit = 1u16 << (f.submodule & 3);
         let m = match f.output {
