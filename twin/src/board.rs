@@ -129,6 +129,9 @@ pub struct Board {
     pub pwm: [FlexPwm; 4],
     /// XBARA1 select per output.
     pub xbar: [u8; 132],
+    /// The last FlexPWM trigger selected per XBARA1 output (bookkeeping: the
+    /// output's pulse log while `LOGIC_LOW` is selected).
+    pub xbar_last_trigger: HashMap<usize, (usize, usize)>,
     /// The arm.
     pub plant: Plant,
     /// SRC SRSR.
@@ -183,6 +186,7 @@ impl Board {
             tmr: Default::default(),
             pwm: Default::default(),
             xbar: [0; 132],
+            xbar_last_trigger: HashMap::new(),
             plant,
             srsr: 1, // IPP_RESET_B: power-on
             vtor: 0,
@@ -226,6 +230,7 @@ impl Board {
             p.record = rec;
         }
         self.xbar = [0; 132];
+        self.xbar_last_trigger.clear();
         self.vtor = 0;
         self.nvic_en = [0; 8];
         self.dwt_ctrl = 0x4000_0000;
@@ -335,6 +340,12 @@ impl Board {
                 return format!("FLEXPWM{m}_PWM{}{s}", if b { 'B' } else { 'A' });
             }
         }
+        if let Some((a, inout)) = pads::xbar_inout_function(p) {
+            if a == alt {
+                let dir = if self.pad_xbar_output(p).is_some() { "output" } else { "input" };
+                return format!("XBAR1_INOUT{inout} ({dir})");
+            }
+        }
         if let Some((m, c, a, daisy)) = pads::qtimer_function(p) {
             if a == alt {
                 let selected = daisy.is_none_or(|(off, val)| self.iomux(off) & 3 == val);
@@ -348,15 +359,61 @@ impl Board {
         format!("ALT{alt}")
     }
 
-    /// Pad routing of each PWM output (the pad is muxed to it).
+    /// A register's value (stored, or its reset value).
+    fn reg(&self, a: u32) -> u32 {
+        self.regs.get(&a).copied().unwrap_or_else(|| reset_value(a))
+    }
+
+    /// XBARA1 output `out` (0..132) as a FlexPWM trigger: (module,
+    /// submodule) whose `PWM_OUT_TRIG0_1` is selected (inputs 40..=51 =
+    /// FlexPWM1..3 submodules 0..3, NXP SDK XBARA1 input table), if the
+    /// XBAR1 clock gate (CCGR2 CG11) is open.
+    fn xbar_trigger_source(&self, out: usize) -> Option<(usize, usize)> {
+        let gate = (self.reg(CCM + 0x70) >> 22) & 3 != 0;
+        let sel = usize::from(*self.xbar.get(out)?);
+        if gate && (40..=51).contains(&sel) {
+            Some(((sel - 40) / 4 + 1, (sel - 40) % 4))
+        } else {
+            None
+        }
+    }
+
+    /// The pad is an XBAR1_INOUT output (its ALT selected, `IOMUXC_GPR6`
+    /// direction bit `12 + n` set): the XBARA1 output number.
+    fn pad_xbar_output(&self, p: Pad) -> Option<usize> {
+        let (alt, inout) = pads::xbar_inout_function(p)?;
+        let gpr6 = self.reg(IOMUXC_GPR + 0x18);
+        (self.pad_mux(p).0 == alt && gpr6 & (1 << (12 + inout)) != 0).then_some(inout)
+    }
+
+    /// Where a pad's level comes from, if a FlexPWM drives it: (module,
+    /// submodule, log index 0 = A / 1 = B on the pad, 2 = `PWM_OUT_TRIG0`
+    /// through XBARA1).
+    pub fn pad_pwm_source(&self, p: Pad) -> Option<(usize, usize, usize)> {
+        if let Some((m, s, b, a)) = pads::pwm_function(p) {
+            if self.pad_mux(p).0 == a {
+                return Some((m, s, usize::from(b)));
+            }
+        }
+        let out = self.pad_xbar_output(p)?;
+        let (m, s) = self.xbar_trigger_source(out).or_else(|| self.xbar_last_trigger.get(&out).copied())?;
+        Some((m, s, 2))
+    }
+
+    /// Pad routing of each PWM output (the pad is muxed to it, directly or
+    /// through XBARA1).
     fn pwm_routes(&self) -> [PadRoute; 4] {
         let mut r = [PadRoute::default(); 4];
         for pin in WIRING.step {
             let Some(p) = pads::teensy_pad(pin) else { continue };
-            if let Some((m, s, b, a)) = pads::pwm_function(p) {
-                if self.pad_mux(p).0 == a {
-                    r[m - 1].routed[s][usize::from(b)] = true;
+            match self.pad_pwm_source(p) {
+                // only while the trigger (not LOGIC_LOW) is selected
+                Some((m, s, 2)) if self.pad_xbar_output(p).and_then(|o| self.xbar_trigger_source(o)).is_some() => {
+                    r[m - 1].trig0[s] = true
                 }
+                Some((_, _, 2)) => {}
+                Some((m, s, b)) => r[m - 1].routed[s][b] = true,
+                None => {}
             }
         }
         r
@@ -367,43 +424,42 @@ impl Board {
         (0..6)
             .map(|i| {
                 let pin = WIRING.step[i];
-                let Some(p) = pads::teensy_pad(pin) else { return format!("J{} pin {pin}: unknown", i + 1) };
-                let Some((m, s, b, _)) = pads::pwm_function(p) else {
-                    return format!("J{} pin {pin}: no PWM", i + 1);
+                let Some((m, s, b)) = self.step_source(i) else {
+                    return format!("J{} pin {pin} {}: no PWM reaches the pad", i + 1, self.pin_function(pin));
                 };
                 let pw = &self.pwm[m - 1];
                 let sm = &pw.sm[s];
-                let bit = if b { 4 + s } else { 8 + s };
+                let bit = if b == 1 { 4 + s } else { 8 + s };
                 format!(
-                    "J{} pin {pin} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL3={} LDOK={} dropped-writes={} pulses={}",
+                    "J{} pin {pin} {} <- FLEXPWM{m} sm{s} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL2={} VAL3={} LDOK={} dropped-writes={} pulses={}",
                     i + 1,
                     self.pin_function(pin),
+                    ["A", "B", "OUT_TRIG0 via XBARA1"][b],
                     u8::from(pw.mctrl & (1 << (8 + s)) != 0),
                     u8::from(pw.outen & (1 << bit) != 0),
                     u8::from(pw.mask & (1 << bit) != 0),
-                    pw.fault_disabled(s, usize::from(b)),
+                    pw.fault_disabled(s, b.min(1)),
                     pw.fctrl,
                     pw.read(0x18E),
                     sm.dismap0(),
                     sm.prsc,
                     sm.val[1],
+                    sm.val[2],
                     sm.val[3],
                     u8::from(pw.mctrl & (1 << s) != 0),
                     sm.dropped_writes,
-                    sm.log[usize::from(b)].pulses
+                    sm.log[b].pulses
                 )
             })
             .collect()
     }
 
-    /// STEP pulses seen on each axis's STEP pin since power-on.
+    /// STEP pulses seen on each axis's STEP pin since power-on (the output
+    /// that drives the pad now).
     pub fn step_pulses(&self) -> [u64; 6] {
-        core::array::from_fn(|i| {
-            let Some(p) = pads::teensy_pad(WIRING.step[i]) else { return 0 };
-            match pads::pwm_function(p) {
-                Some((m, s, b, _)) => self.pwm[m - 1].sm[s].log[usize::from(b)].pulses,
-                None => 0,
-            }
+        core::array::from_fn(|i| match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].pulses,
+            None => 0,
         })
     }
 
@@ -473,9 +529,7 @@ impl Board {
     /// submodule, log index) for a pad muxed to a PWM output, or for pin 7
     /// routed through XBARA1 the trigger log.
     pub fn step_source(&self, i: usize) -> Option<(usize, usize, usize)> {
-        let p = pads::teensy_pad(WIRING.step[i])?;
-        let (m, s, b, _) = pads::pwm_function(p)?;
-        Some((m, s, usize::from(b)))
+        self.pad_pwm_source(pads::teensy_pad(WIRING.step[i])?)
     }
 
     /// Rising-edge times (cycles) recorded on axis `i`'s STEP pin.
@@ -865,6 +919,9 @@ impl Board {
                 let i = off as usize + k;
                 if i < 132 {
                     self.xbar[i] = b & 0x7F;
+                    if let Some(src) = self.xbar_trigger_source(i) {
+                        self.xbar_last_trigger.insert(i, src);
+                    }
                 }
             }
             return;

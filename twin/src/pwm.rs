@@ -97,6 +97,9 @@ pub struct Submodule {
     /// Start times (cycles; the time of the last sync before the `RUN`
     /// write), bounded.
     pub start_times: Vec<u64>,
+    /// `PWM_OUT_TRIG0` rising edges that reached a pad while PWM_A was
+    /// masked (`MASK` does not gate the trigger path in this model).
+    pub trig_rises_masked: u64,
 }
 
 impl Submodule {
@@ -124,6 +127,7 @@ impl Submodule {
             last_stale: None,
             rises_at_start: 0,
             start_times: Vec::new(),
+            trig_rises_masked: 0,
         }
     }
     /// DISMAP0.
@@ -135,7 +139,7 @@ impl Submodule {
     }
     /// `TCTRL[PWAOT0]`: PWM_A drives `PWM_OUT_TRIG0`.
     pub fn pwaot0(&self) -> bool {
-        self.other[0x24 / 2] & (1 << 15) != 0
+        self.other[0x2A / 2] & (1 << 15) != 0
     }
     /// `CTRL2[DBGEN]`.
     pub fn dbgen(&self) -> bool {
@@ -251,6 +255,8 @@ impl FlexPwm {
             loop {
                 let trig = route.trig0[s] && self.sm[s].pwaot0();
                 let live = [self.output_live(s, 0, route), self.output_live(s, 1, route), trig];
+                let masked_a = self.mask & (1 << (8 + s)) != 0;
+                let before = self.sm[s].log[2].pulses;
                 let record = self.record;
                 let ldok = self.ldok(s);
                 let sm = &mut self.sm[s];
@@ -264,7 +270,7 @@ impl FlexPwm {
                         let c = if b == 2 { 0 } else { b };
                         if on && sm.val[2 + 2 * c] == sm.cnt && sm.val[3 + 2 * c] > sm.cnt {
                             note_rise(&mut sm.log[b], sm.t_cnt, record);
-                            if started && b < 2 {
+                            if started {
                                 sm.rises_at_start += 1;
                             }
                         }
@@ -292,6 +298,9 @@ impl FlexPwm {
                     }
                     sm.cnt = sm.cnt.wrapping_add(elapsed as u16);
                     sm.t_cnt += elapsed * cpc;
+                    if masked_a {
+                        sm.trig_rises_masked += sm.log[2].pulses - before;
+                    }
                     break;
                 }
                 // finish the period: edges after cnt up to top
@@ -311,6 +320,9 @@ impl FlexPwm {
                 }
                 self.mask = self.mask_buf;
                 let sm = &mut self.sm[s];
+                if masked_a {
+                    sm.trig_rises_masked += sm.log[2].pulses - before;
+                }
                 sm.cnt = sm.init;
                 sm.at_start = true;
             }
@@ -627,7 +639,7 @@ mod tests {
         let mut p = FlexPwm::new();
         p.write(0x18C, 0xF000);
         p.write(0x18E, 0x000F);
-        p.write(0x24, 1 << 15); // TCTRL0 PWAOT0
+        p.write(0x2A, 1 << 15); // TCTRL0 PWAOT0
         start(&mut p, 99, 10);
         p.write(0x182, (1 << 8) | (1 << 12)); // MASK A0, UPDATE_MASK
         let route = PadRoute { routed: [[false; 2]; 4], trig0: [true, false, false, false] };

@@ -96,10 +96,15 @@ fn step_pins() -> [u8; 6] {
 /// Run `ms` after a fatal event at J6 homing speed: no STEP pulse on any
 /// pin, and every STEP pin a GPIO output driven low.
 fn assert_steps_stopped(t: &mut Twin, ms: u64, what: &str) {
-    let before = t.board().step_pulses();
+    // the outputs that drove the pins before (the pads change function)
+    let src: Vec<Option<(usize, usize, usize)>> = (0..6).map(|i| t.board().step_source(i)).collect();
+    let count = |t: &Twin| -> Vec<u64> {
+        src.iter().map(|s| s.map_or(0, |(m, sm, b)| t.board().pwm[m - 1].sm[sm].log[b].pulses)).collect()
+    };
+    let before = count(t);
     let end = t.now() / MS + ms;
     run(t, end);
-    let after = t.board().step_pulses();
+    let after = count(t);
     let extra: Vec<u64> = after.iter().zip(before.iter()).map(|(a, b)| a - b).collect();
     let levels: Vec<Option<bool>> = step_pins().iter().map(|&p| t.board().gpio_out(p)).collect();
     eprintln!("{what}: pulses in the {ms} ms after {extra:?}, STEP pins as GPIO outputs {levels:?}");
@@ -190,4 +195,45 @@ fn defect7_defmt_log_compiled_in() {
     eprintln!("defmt statements per level: {per_level:?}");
     let info = per_level.iter().find(|(l, _)| *l == "INFO").map_or(0, |x| x.1);
     assert!(info >= 1, "no INFO log statement compiled in: {per_level:?}");
+}
+
+/// Defect 8: the original wiring. J6 STEP on pin 7 (GPIO_B1_01, ALT1 =
+/// `XBAR1_INOUT15`, output via `IOMUXC_GPR6`), driven by FlexPWM2
+/// submodule 3's `PWM_OUT_TRIG0` through XBARA1 (input 47 -> output 15):
+/// `<HOME>` must put J6's pulses on pin 7 and move the joint. Before the
+/// fix (pin 36 map) pin 7 stayed unconfigured: 0 pulses, J6 did not move.
+#[test]
+fn defect8_j6_steps_on_pin7_through_xbar() {
+    let mut t = boot_twin().unwrap();
+    let q0 = t.board().plant.q();
+    home(&mut t);
+    run(&mut t, 360);
+    let b = t.board();
+    let report = b.step_report().join("\n");
+    eprintln!("pin 7: {}, pulses {:?}\n{report}", b.pin_function(7), b.step_pulses());
+    assert_eq!(b.pin_function(7), "XBAR1_INOUT15 (output)", "{report}");
+    assert_eq!(b.step_source(5), Some((2, 3, 2)), "pin 7 <- FlexPWM2 sm3 OUT_TRIG0\n{report}");
+    assert!(b.step_pulses()[5] > 1000, "J6 pulses on pin 7: {:?}\n{report}", b.step_pulses());
+    assert!(b.plant.q()[5] - q0[5] > 0.3, "J6 moved {}", b.plant.q()[5] - q0[5]);
+    assert!(b.plant.q()[..5] == q0[..5], "only J6 homes first");
+}
+
+/// Defect 8, the stop on the trigger path: in this model `MASK` does not
+/// gate `PWM_OUT_TRIG0` (the reference material does not say it does), so
+/// the firmware stops pin 7 by selecting XBARA1 `LOGIC_LOW`. Homing J6 from
+/// near its switch (stops and restarts): no trigger edge reaches pin 7
+/// while the firmware has J6 masked, and no edge at a restart.
+#[test]
+fn defect8_pin7_stop_is_glitch_free() {
+    let mut t = near_switch_twin();
+    home(&mut t);
+    run(&mut t, 1400);
+    let sm = &t.board().pwm[1].sm[3];
+    eprintln!(
+        "FlexPWM2 sm3: starts {}, trigger edges while masked {}, at a start {}, pin 7 pulses {}",
+        sm.starts, sm.trig_rises_masked, sm.rises_at_start, sm.log[2].pulses
+    );
+    assert!(sm.starts >= 4);
+    assert_eq!(sm.trig_rises_masked, 0, "pin 7 pulsed while J6 was stopped");
+    assert_eq!(sm.rises_at_start, 0);
 }
