@@ -237,3 +237,49 @@ fn defect8_pin7_stop_is_glitch_free() {
     assert_eq!(sm.trig_rises_masked, 0, "pin 7 pulsed while J6 was stopped");
     assert_eq!(sm.rises_at_start, 0);
 }
+
+/// Feedback angles (rad) of the last driver feedback line.
+fn feedback_angles(t: &Twin) -> Vec<f64> {
+    let text = t.board().serial_text();
+    let last = text.lines().rev().find(|s| s.starts_with("<ACK,") && s.ends_with('>')).expect("feedback").to_owned();
+    last.trim_matches(['<', '>']).split(',').skip(2).step_by(2).take(6).map(|x| x.parse().unwrap()).collect()
+}
+
+/// Defect 6: MT6816s whose oscillators run fast, J1 by 5 % (frame 586 957
+/// cycles, shorter than the 1 ms tick) and J4 by 9.5 %, are read
+/// correctly. Before the fix every reading of them was refused (periods
+/// under 606 000 cycles), the boot self-test failed (`FAULT HARDWARE
+/// SELF_TEST code=73`: encoders J1 and J4) and both reported 0.
+#[test]
+fn defect6_encoder_5pct_fast_is_read() {
+    let elf = twin::load_image().unwrap();
+    let mut plant = twin::Plant::new(&kernel::config::PAROL6, twin::START_Q);
+    plant.joints[0].clock_ppm = -50_000.0;
+    plant.joints[3].clock_ppm = -95_000.0;
+    let mut t = Twin::new(&elf, plant).unwrap();
+    run(&mut t, 600);
+    let text = t.board().serial_text();
+    let faults: Vec<&str> = text.lines().filter(|l| l.starts_with("FAULT")).collect();
+    let got = feedback_angles(&t);
+    eprintln!("faults {faults:?}; J1/J4 reported {:.4}/{:.4}", got[0], got[3]);
+    assert!(faults.is_empty(), "{faults:?}");
+    let cfg = &kernel::config::PAROL6;
+    for i in [0, 3] {
+        let g = f64::from(cfg.joints[i].gear_ratio);
+        let want = (twin::START_Q[i] * g).rem_euclid(std::f64::consts::TAU) / g;
+        assert!((got[i] - want).abs() < 0.002, "J{}: reported {}, plant {want}", i + 1, got[i]);
+    }
+}
+
+/// Defect 6: the QuadTimer input filter is on for the six encoder channels
+/// (`FILT` != 0). Before the fix `FILT = 0` (bypassed).
+#[test]
+fn defect6_encoder_input_filter_enabled() {
+    let mut t = boot_twin().unwrap();
+    run(&mut t, 40);
+    // (TMR, channel) of J1..J6: TMR1 ch0/2/1, TMR3 ch2/3/0
+    let chans = [(1, 0), (1, 2), (1, 1), (3, 2), (3, 3), (3, 0)];
+    let filt: Vec<u16> = chans.iter().map(|&(m, c)| t.board().tmr[m - 1].ch[c].r[twin::qtimer::FILT]).collect();
+    eprintln!("FILT of J1..J6: {filt:x?}");
+    assert!(filt.iter().all(|&f| f & 0xFF != 0 && f >> 8 & 7 != 0), "input filter off: {filt:x?}");
+}
