@@ -170,6 +170,15 @@ pub struct Board {
     /// inactive level regardless of XBAR/FLVL (shows what the image would
     /// do with the faults disarmed).
     pub faults_forced_inactive: bool,
+    /// Skip idle main-loop time (see `Twin` docs): enabled.
+    pub idle_skip: bool,
+    /// Set by the harness: the CPU runs thread code (no handler) after the
+    /// PIT interrupt was enabled, so idle time may be skipped.
+    pub idle_skip_allowed: bool,
+    /// Time of the last MMIO write (peripherals or core peripherals).
+    pub last_write_at: u64,
+    /// The block hook stopped the CPU because it was idle.
+    pub idle_stop: bool,
 }
 
 impl Board {
@@ -205,6 +214,10 @@ impl Board {
             main_addr: u32::MAX,
             main_at: Vec::new(),
             faults_forced_inactive: false,
+            idle_skip: std::env::var_os("TWIN_NO_IDLE_SKIP").is_none(),
+            idle_skip_allowed: false,
+            last_write_at: 0,
+            idle_stop: false,
         };
         b.reset_peripherals();
         b
@@ -569,6 +582,32 @@ impl Board {
         }
     }
 
+    /// No byte arriving on LPUART6 (none pending from the host, none in the
+    /// RX FIFO).
+    pub fn uart_rx_quiet(&self) -> bool {
+        self.uart.rx_pending.is_empty() && self.uart.rx_fifo.is_empty()
+    }
+
+    /// When the LPUART6 transmitter next changes state (the shifter takes
+    /// the next FIFO byte or finishes), if it is busy.
+    pub fn uart_tx_next_event(&self) -> Option<u64> {
+        (self.uart.tx_busy_until > self.now || !self.uart.tx_fifo.is_empty())
+            .then_some(self.uart.tx_busy_until.max(self.now + 1))
+    }
+
+    /// The next PIT expiry (cycles), if a channel runs.
+    pub fn next_pit(&self) -> Option<u64> {
+        let clk = self.pit_clock_cycles();
+        if self.pit_mcr & 2 != 0 {
+            return None;
+        }
+        self.pit
+            .iter()
+            .filter(|ch| ch.tctrl & 1 != 0)
+            .map(|ch| ch.start + (ch.expiries + 1) * (u64::from(ch.ldval) + 1) * clk)
+            .min()
+    }
+
     /// Next time anything needs the CPU's attention (PIT expiry, watchdog).
     pub fn next_event(&self) -> u64 {
         let mut t = u64::MAX;
@@ -890,6 +929,7 @@ impl Board {
 
     /// Peripheral write.
     pub fn write(&mut self, addr: u32, size: usize, value: u32) {
+        self.last_write_at = self.now;
         self.write_inner(addr, size, value);
         let next = self.next_event().max(self.now + 1);
         self.stop_at = self.stop_at.min(next);

@@ -22,6 +22,9 @@ const FAST_GPIO: u64 = 0x4200_0000;
 const PPB: u64 = 0xE000_0000;
 /// Return address given to handlers; a `b .` lives there.
 const SENTINEL: u64 = 0x7000_0000;
+/// Thread code that ran this many cycles without an MMIO write, with no
+/// byte arriving on LPUART6, is idle (see [`Twin::run_until`]).
+pub const IDLE_CYCLES: u64 = 5_000;
 
 /// Why a run stopped with an error.
 #[derive(Debug)]
@@ -52,6 +55,10 @@ pub struct Stats {
     pub stop_mismatch: u64,
     /// Chip resets by the watchdog.
     pub watchdog_resets: u64,
+    /// Idle main-loop stretches skipped, and the cycles skipped.
+    pub idle_skips: u64,
+    /// Cycles skipped as idle.
+    pub idle_cycles: u64,
 }
 
 /// The twin: CPU + board.
@@ -127,7 +134,11 @@ impl Twin {
                 count_thumb(&code)
             });
             let b = uc.get_data_mut();
-            if b.now >= b.stop_at || addr == SENTINEL {
+            let idle = b.idle_skip
+                && b.idle_skip_allowed
+                && b.now.saturating_sub(b.last_write_at) > IDLE_CYCLES
+                && b.uart_rx_quiet();
+            if b.now >= b.stop_at || addr == SENTINEL || idle {
                 // Never stop inside an IT block: restarting writes the PC,
                 // which loses ITSTATE (the rest of the block would run
                 // unconditionally). Stop at the next block instead.
@@ -136,7 +147,9 @@ impl Twin {
                     // Unicorn stops before this block's body runs; it is
                     // counted when it runs after the restart.
                     let _ = uc.emu_stop();
-                    uc.get_data_mut().stopped_at = Some(addr as u32);
+                    let b = uc.get_data_mut();
+                    b.stopped_at = Some(addr as u32);
+                    b.idle_stop = idle && b.now < b.stop_at;
                     return;
                 }
                 uc.get_data_mut().it_deferred += 1;
@@ -251,6 +264,11 @@ impl Twin {
                 stop = stop.max(now + 1).min(now + 200);
             }
             b.stop_at = stop.max(now + 1);
+            // Idle skipping: only thread code (no handler running) after the
+            // image enabled the PIT interrupt, i.e. its main loop.
+            let pit_enabled = self.board().nvic_en[(IRQ_PIT / 32) as usize] & (1 << (IRQ_PIT % 32)) != 0;
+            let allowed = self.in_handler.is_none() && pit_enabled && !pending;
+            self.board_mut().idle_skip_allowed = allowed;
             let pc = self.next_pc.take().unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0));
             if std::env::var_os("TWIN_DEBUG").is_some() && now < 100_000 || std::env::var_os("TWIN_DEBUG_ALL").is_some()
             {
@@ -265,6 +283,25 @@ impl Twin {
             }
             if let Err(err) = r {
                 return Err(self.fault(format!("CPU stopped: {err:?}")));
+            }
+            if std::mem::take(&mut self.board_mut().idle_stop) {
+                // The main loop spins without writing a peripheral: what it
+                // polls changes next at the next PIT interrupt (the only
+                // interrupt) or the next LPUART6 transmitter step, so the
+                // spinning is skipped: time jumps there, as if the loop had
+                // run (CYCCNT follows `now`).
+                let b = self.board_mut();
+                let mut target = b.next_pit().unwrap_or(t_end).min(t_end);
+                if let Some(u) = b.uart_tx_next_event() {
+                    target = target.min(u);
+                }
+                if target > b.now {
+                    let d = target - b.now;
+                    b.now = target;
+                    b.last_write_at = target;
+                    self.stats.idle_skips += 1;
+                    self.stats.idle_cycles += d;
+                }
             }
             if pc == SENTINEL {
                 let Some(ctx) = self.in_handler.take() else {
@@ -411,6 +448,7 @@ fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
 }
 
 fn ppb_write(b: &mut Board, a: u32, v: u32) {
+    b.last_write_at = b.now;
     match a & !3 {
         0xE000_1000 => {
             // entering/leaving the enabled state keeps the count continuous

@@ -58,6 +58,11 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}; stops deferred out of IT blocks {}; stop mismatches {}",
         b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
     );
+    println!(
+        "idle main loop skipped: {} times, {:.1} % of simulated time (TWIN_NO_IDLE_SKIP=1 turns it off)",
+        t.stats.idle_skips,
+        100.0 * t.stats.idle_cycles as f64 / b.now.max(1) as f64
+    );
     Ok(())
 }
 
