@@ -4,7 +4,7 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use crate::pads::{self, Pad, WIRING};
+use crate::pads::{self, wiring, Pad};
 use crate::plant::Plant;
 use crate::pwm::{FlexPwm, PadRoute};
 use crate::qtimer::{InputWave, QTimer};
@@ -296,12 +296,12 @@ impl Board {
     /// DIR line of axis `i`: the GPIO level if driven, else low (driver
     /// input pulled low).
     pub fn dir_level(&self, i: usize) -> bool {
-        self.gpio_out(WIRING.dir[i]).unwrap_or(false)
+        self.gpio_out(wiring().dir[i]).unwrap_or(false)
     }
 
     /// External level on a pad (what the outside world drives or pulls).
     fn external_level(&self, p: Pad) -> bool {
-        for (i, &pin) in WIRING.limit.iter().enumerate() {
+        for (i, &pin) in wiring().limit.iter().enumerate() {
             if pads::teensy_pad(pin) == Some(p) {
                 if self.plant.joints[i].switch_closed() {
                     return false; // switch to ground
@@ -417,7 +417,7 @@ impl Board {
     /// through XBARA1).
     fn pwm_routes(&self) -> [PadRoute; 4] {
         let mut r = [PadRoute::default(); 4];
-        for pin in WIRING.step {
+        for pin in wiring().step {
             let Some(p) = pads::teensy_pad(pin) else { continue };
             match self.pad_pwm_source(p) {
                 // only while the trigger (not LOGIC_LOW) is selected
@@ -436,7 +436,7 @@ impl Board {
     pub fn step_report(&self) -> Vec<String> {
         (0..6)
             .map(|i| {
-                let pin = WIRING.step[i];
+                let pin = wiring().step[i];
                 let Some((m, s, b)) = self.step_source(i) else {
                     return format!("J{} pin {pin} {}: no PWM reaches the pad", i + 1, self.pin_function(pin));
                 };
@@ -504,7 +504,7 @@ impl Board {
             }
         }
         // encoders -> TMR1/TMR3 channels whose pads are selected
-        for (i, &pin) in WIRING.encoder.iter().enumerate() {
+        for (i, &pin) in wiring().encoder.iter().enumerate() {
             let Some(p) = pads::teensy_pad(pin) else { continue };
             let Some((m, c, alt, daisy)) = pads::qtimer_function(p) else { continue };
             let (pad_alt, _) = self.pad_mux(p);
@@ -542,7 +542,7 @@ impl Board {
     /// submodule, log index) for a pad muxed to a PWM output, or for pin 7
     /// routed through XBARA1 the trigger log.
     pub fn step_source(&self, i: usize) -> Option<(usize, usize, usize)> {
-        self.pad_pwm_source(pads::teensy_pad(WIRING.step[i])?)
+        self.pad_pwm_source(pads::teensy_pad(wiring().step[i])?)
     }
 
     /// Rising-edge times (cycles) recorded on axis `i`'s STEP pin.

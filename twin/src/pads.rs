@@ -184,5 +184,20 @@ pub const WIRING: Wiring = Wiring {
     limit: [20, 21, 22, 23, 24, 25],
 };
 
+/// The wiring the twin connects: [`WIRING`], or with `TWIN_J6_PIN=36` in
+/// the environment J6 STEP on pin 36 (for images built with the firmware's
+/// `j6-pin36` feature or before issue 11 defect 8, e.g. to reproduce a
+/// test's figures on the image of an older commit).
+pub fn wiring() -> &'static Wiring {
+    static W: std::sync::OnceLock<Wiring> = std::sync::OnceLock::new();
+    W.get_or_init(|| {
+        let mut w = WIRING;
+        if std::env::var("TWIN_J6_PIN").is_ok_and(|v| v.trim() == "36") {
+            w.step[5] = 36;
+        }
+        w
+    })
+}
+
 /// IOMUXC offsets of the LPUART6 pads and daisy registers.
 pub const LPUART6_RX_SELECT: u32 = 0x550;

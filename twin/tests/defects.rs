@@ -90,7 +90,7 @@ fn defect4_no_pulse_at_a_restart() {
 
 /// STEP pins of the six axes (the twin's wiring).
 fn step_pins() -> [u8; 6] {
-    twin::pads::WIRING.step
+    twin::pads::wiring().step
 }
 
 /// Run `ms` after a fatal event at J6 homing speed: no STEP pulse on any
