@@ -8,7 +8,12 @@
 //! it; the twin when its first byte leaves the UART at 115 200 baud,
 //! behind at most one feedback line (~100 bytes, 8.7 ms) and a tick of
 //! queueing, and its idle skipping can delay main-loop work by up to one
-//! tick: 25 ms covers both. Angles: both plants step exactly, but the
+//! tick: 10 ms. Homing amplifies one tick: a switch hit seen one tick
+//! apart during the fast seek (the plants differ: encoder mounting
+//! offsets, the simulator's sampling jitter) moves the slow seek's start by
+//! `fast_speed x 1 ms` and its length by `fast / slow` ms, 40 ms for J6
+//! (2.0 / 0.05 rad/s): 50 ms in all (measured: 1 ms on the short
+//! scenarios, 42 ms on the second homing of `startup-homing`). Angles: both plants step exactly, but the
 //! encoders' phases and the simulator's sampling jitter differ, so homing's
 //! switch hits may differ by a tick at the slow seek speed (0.05 rad/s x
 //! 1 ms = 0.05 mrad), and a step-rate quantisation of the last move: 5 mrad.
@@ -16,8 +21,8 @@
 use sim::runner::{run as sim_run, RunOptions};
 use sim::scenario::{Anchor, Scenario};
 
-/// Event line time tolerance (ms).
-const EVENT_TOL_MS: u64 = 25;
+/// Event line time tolerance (ms), see the module docs.
+const EVENT_TOL_MS: u64 = 50;
 /// Final joint angle tolerance (rad).
 const ANGLE_TOL_RAD: f64 = 0.005;
 
@@ -69,6 +74,14 @@ fn compare(file: &str) {
         worst_q * 1000.0,
         tw.end_ms as f64 / 1000.0 / tw.wall_s
     );
+}
+
+/// The simulator's own `startup-homing` scenario: 2 s of nothing at
+/// power-on, `<HOME>` (all six joints from the simulator's start pose), a
+/// second `<HOME>` once homed (about 20 s simulated).
+#[test]
+fn startup_homing_matches_the_simulator() {
+    compare("../sim/scenarios/startup-homing.scn");
 }
 
 /// Homing from 0.1 rad before every switch: J6, then J5+J4, then J1+J2+J3.
