@@ -108,7 +108,8 @@ REPRO_RC=0
 if [ -z "${SKIP_REPRO:-}" ]; then
   echo "== reproducibility: second build in another directory"
   TMP="$(mktemp -d /tmp/parol6-repro.XXXXXX)"
-  tar -C "$ROOT" --exclude=./target --exclude=.git -cf - . | tar -C "$TMP" -xf -
+  # (twin/target: the twin's own build, hundreds of MB, not part of the image)
+  tar -C "$ROOT" --exclude=./target --exclude=./twin/target --exclude=.git -cf - . | tar -C "$TMP" -xf -
   build "$TMP" "$TMP/target" >/dev/null 2>"$OUT/repro-build.log" || { echo "second build failed (see $OUT/repro-build.log)"; REPRO_RC=1; }
   if [ "$REPRO_RC" = 0 ]; then
     "$OBJCOPY" -O ihex "$TMP/target/$TARGET/release/parol6" "$OUT/parol6.repro.hex"
