@@ -1,7 +1,7 @@
 //! `twin boot [ms]`: boot the image, print Serial1 output and figures.
 //! `twin home [ms]`: boot, send `<HOME>`, print joint angles and STEP counts.
 //! `twin live`: LPUART6 on a pseudo-terminal (its path is printed); runs
-//! until interrupted, as fast as it can.
+//! until interrupted, at most at real time.
 //! `twin run FILE.scn`: a simulator scenario on the image: its event lines
 //! with times, the anchors, the final joint angles, the speed.
 
@@ -118,6 +118,12 @@ fn live(mut t: Twin) -> Result<(), String> {
         }
         let next = (t.now() / MS + 1) * MS;
         t.run_until(next).map_err(|f| f.to_string())?;
+        // never ahead of real time (idle skipping can make the twin faster
+        // than the chip): a client sees the image's own timing
+        let ahead = t.now() as f64 / (1000 * MS) as f64 - wall.elapsed().as_secs_f64();
+        if ahead > 0.0 {
+            std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+        }
         let out: Vec<u8> = t.board().uart.tx_out[sent..].iter().map(|&(_, b)| b).collect();
         sent += out.len();
         pty.write(&out);
