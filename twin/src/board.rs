@@ -582,10 +582,15 @@ impl Board {
         }
     }
 
-    /// No byte arriving on LPUART6 (none pending from the host, none in the
-    /// RX FIFO).
+    /// Nothing for the image to read on LPUART6 now (RX FIFO empty; bytes
+    /// still on the wire arrive at [`Board::uart_rx_next_event`]).
     pub fn uart_rx_quiet(&self) -> bool {
-        self.uart.rx_pending.is_empty() && self.uart.rx_fifo.is_empty()
+        self.uart.rx_fifo.is_empty()
+    }
+
+    /// When the next host byte lands in the RX FIFO, if one is on its way.
+    pub fn uart_rx_next_event(&self) -> Option<u64> {
+        (!self.uart.rx_pending.is_empty()).then_some(self.uart.rx_next.max(self.now + 1))
     }
 
     /// When the LPUART6 transmitter next changes state (the shifter takes

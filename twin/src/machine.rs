@@ -23,7 +23,8 @@ const PPB: u64 = 0xE000_0000;
 /// Return address given to handlers; a `b .` lives there.
 const SENTINEL: u64 = 0x7000_0000;
 /// Thread code that ran this many cycles without an MMIO write, with no
-/// byte arriving on LPUART6, is idle (see [`Twin::run_until`]).
+/// received byte waiting in the LPUART6 FIFO, is idle (see
+/// [`Twin::run_until`]).
 pub const IDLE_CYCLES: u64 = 5_000;
 
 /// Why a run stopped with an error.
@@ -287,12 +288,13 @@ impl Twin {
             if std::mem::take(&mut self.board_mut().idle_stop) {
                 // The main loop spins without writing a peripheral: what it
                 // polls changes next at the next PIT interrupt (the only
-                // interrupt) or the next LPUART6 transmitter step, so the
+                // interrupt), the next LPUART6 transmitter step or the next
+                // received byte, so the
                 // spinning is skipped: time jumps there, as if the loop had
                 // run (CYCCNT follows `now`).
                 let b = self.board_mut();
                 let mut target = b.next_pit().unwrap_or(t_end).min(t_end);
-                if let Some(u) = b.uart_tx_next_event() {
+                for u in [b.uart_tx_next_event(), b.uart_rx_next_event()].into_iter().flatten() {
                     target = target.min(u);
                 }
                 if target > b.now {
