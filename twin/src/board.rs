@@ -4,7 +4,7 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use crate::pads::{self, Pad, WIRING};
+use crate::pads::{self, wiring, Pad};
 use crate::plant::Plant;
 use crate::pwm::{FlexPwm, PadRoute};
 use crate::qtimer::{InputWave, QTimer};
@@ -129,6 +129,9 @@ pub struct Board {
     pub pwm: [FlexPwm; 4],
     /// XBARA1 select per output.
     pub xbar: [u8; 132],
+    /// The last FlexPWM trigger selected per XBARA1 output (bookkeeping: the
+    /// output's pulse log while `LOGIC_LOW` is selected).
+    pub xbar_last_trigger: HashMap<usize, (usize, usize)>,
     /// The arm.
     pub plant: Plant,
     /// SRC SRSR.
@@ -167,6 +170,15 @@ pub struct Board {
     /// inactive level regardless of XBAR/FLVL (shows what the image would
     /// do with the faults disarmed).
     pub faults_forced_inactive: bool,
+    /// Skip idle main-loop time (see `Twin` docs): enabled.
+    pub idle_skip: bool,
+    /// Set by the harness: the CPU runs thread code (no handler) after the
+    /// PIT interrupt was enabled, so idle time may be skipped.
+    pub idle_skip_allowed: bool,
+    /// Time of the last MMIO write (peripherals or core peripherals).
+    pub last_write_at: u64,
+    /// The block hook stopped the CPU because it was idle.
+    pub idle_stop: bool,
 }
 
 impl Board {
@@ -183,6 +195,7 @@ impl Board {
             tmr: Default::default(),
             pwm: Default::default(),
             xbar: [0; 132],
+            xbar_last_trigger: HashMap::new(),
             plant,
             srsr: 1, // IPP_RESET_B: power-on
             vtor: 0,
@@ -201,6 +214,10 @@ impl Board {
             main_addr: u32::MAX,
             main_at: Vec::new(),
             faults_forced_inactive: false,
+            idle_skip: std::env::var_os("TWIN_NO_IDLE_SKIP").is_none(),
+            idle_skip_allowed: false,
+            last_write_at: 0,
+            idle_stop: false,
         };
         b.reset_peripherals();
         b
@@ -226,6 +243,7 @@ impl Board {
             p.record = rec;
         }
         self.xbar = [0; 132];
+        self.xbar_last_trigger.clear();
         self.vtor = 0;
         self.nvic_en = [0; 8];
         self.dwt_ctrl = 0x4000_0000;
@@ -278,12 +296,12 @@ impl Board {
     /// DIR line of axis `i`: the GPIO level if driven, else low (driver
     /// input pulled low).
     pub fn dir_level(&self, i: usize) -> bool {
-        self.gpio_out(WIRING.dir[i]).unwrap_or(false)
+        self.gpio_out(wiring().dir[i]).unwrap_or(false)
     }
 
     /// External level on a pad (what the outside world drives or pulls).
     fn external_level(&self, p: Pad) -> bool {
-        for (i, &pin) in WIRING.limit.iter().enumerate() {
+        for (i, &pin) in wiring().limit.iter().enumerate() {
             if pads::teensy_pad(pin) == Some(p) {
                 if self.plant.joints[i].switch_closed() {
                     return false; // switch to ground
@@ -335,6 +353,12 @@ impl Board {
                 return format!("FLEXPWM{m}_PWM{}{s}", if b { 'B' } else { 'A' });
             }
         }
+        if let Some((a, inout)) = pads::xbar_inout_function(p) {
+            if a == alt {
+                let dir = if self.pad_xbar_output(p).is_some() { "output" } else { "input" };
+                return format!("XBAR1_INOUT{inout} ({dir})");
+            }
+        }
         if let Some((m, c, a, daisy)) = pads::qtimer_function(p) {
             if a == alt {
                 let selected = daisy.is_none_or(|(off, val)| self.iomux(off) & 3 == val);
@@ -348,15 +372,61 @@ impl Board {
         format!("ALT{alt}")
     }
 
-    /// Pad routing of each PWM output (the pad is muxed to it).
+    /// A register's value (stored, or its reset value).
+    fn reg(&self, a: u32) -> u32 {
+        self.regs.get(&a).copied().unwrap_or_else(|| reset_value(a))
+    }
+
+    /// XBARA1 output `out` (0..132) as a FlexPWM trigger: (module,
+    /// submodule) whose `PWM_OUT_TRIG0_1` is selected (inputs 40..=51 =
+    /// FlexPWM1..3 submodules 0..3, NXP SDK XBARA1 input table), if the
+    /// XBAR1 clock gate (CCGR2 CG11) is open.
+    fn xbar_trigger_source(&self, out: usize) -> Option<(usize, usize)> {
+        let gate = (self.reg(CCM + 0x70) >> 22) & 3 != 0;
+        let sel = usize::from(*self.xbar.get(out)?);
+        if gate && (40..=51).contains(&sel) {
+            Some(((sel - 40) / 4 + 1, (sel - 40) % 4))
+        } else {
+            None
+        }
+    }
+
+    /// The pad is an XBAR1_INOUT output (its ALT selected, `IOMUXC_GPR6`
+    /// direction bit `12 + n` set): the XBARA1 output number.
+    fn pad_xbar_output(&self, p: Pad) -> Option<usize> {
+        let (alt, inout) = pads::xbar_inout_function(p)?;
+        let gpr6 = self.reg(IOMUXC_GPR + 0x18);
+        (self.pad_mux(p).0 == alt && gpr6 & (1 << (12 + inout)) != 0).then_some(inout)
+    }
+
+    /// Where a pad's level comes from, if a FlexPWM drives it: (module,
+    /// submodule, log index 0 = A / 1 = B on the pad, 2 = `PWM_OUT_TRIG0`
+    /// through XBARA1).
+    pub fn pad_pwm_source(&self, p: Pad) -> Option<(usize, usize, usize)> {
+        if let Some((m, s, b, a)) = pads::pwm_function(p) {
+            if self.pad_mux(p).0 == a {
+                return Some((m, s, usize::from(b)));
+            }
+        }
+        let out = self.pad_xbar_output(p)?;
+        let (m, s) = self.xbar_trigger_source(out).or_else(|| self.xbar_last_trigger.get(&out).copied())?;
+        Some((m, s, 2))
+    }
+
+    /// Pad routing of each PWM output (the pad is muxed to it, directly or
+    /// through XBARA1).
     fn pwm_routes(&self) -> [PadRoute; 4] {
         let mut r = [PadRoute::default(); 4];
-        for pin in WIRING.step {
+        for pin in wiring().step {
             let Some(p) = pads::teensy_pad(pin) else { continue };
-            if let Some((m, s, b, a)) = pads::pwm_function(p) {
-                if self.pad_mux(p).0 == a {
-                    r[m - 1].routed[s][usize::from(b)] = true;
+            match self.pad_pwm_source(p) {
+                // only while the trigger (not LOGIC_LOW) is selected
+                Some((m, s, 2)) if self.pad_xbar_output(p).and_then(|o| self.xbar_trigger_source(o)).is_some() => {
+                    r[m - 1].trig0[s] = true
                 }
+                Some((_, _, 2)) => {}
+                Some((m, s, b)) => r[m - 1].routed[s][b] = true,
+                None => {}
             }
         }
         r
@@ -366,44 +436,43 @@ impl Board {
     pub fn step_report(&self) -> Vec<String> {
         (0..6)
             .map(|i| {
-                let pin = WIRING.step[i];
-                let Some(p) = pads::teensy_pad(pin) else { return format!("J{} pin {pin}: unknown", i + 1) };
-                let Some((m, s, b, _)) = pads::pwm_function(p) else {
-                    return format!("J{} pin {pin}: no PWM", i + 1);
+                let pin = wiring().step[i];
+                let Some((m, s, b)) = self.step_source(i) else {
+                    return format!("J{} pin {pin} {}: no PWM reaches the pad", i + 1, self.pin_function(pin));
                 };
                 let pw = &self.pwm[m - 1];
                 let sm = &pw.sm[s];
-                let bit = if b { 4 + s } else { 8 + s };
+                let bit = if b == 1 { 4 + s } else { 8 + s };
                 format!(
-                    "J{} pin {pin} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL3={} LDOK={} dropped-writes={} pulses={}",
+                    "J{} pin {pin} {} <- FLEXPWM{m} sm{s} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL2={} VAL3={} LDOK={} dropped-writes={} pulses={}",
                     i + 1,
                     self.pin_function(pin),
+                    ["A", "B", "OUT_TRIG0 via XBARA1"][b],
                     u8::from(pw.mctrl & (1 << (8 + s)) != 0),
                     u8::from(pw.outen & (1 << bit) != 0),
                     u8::from(pw.mask & (1 << bit) != 0),
-                    pw.fault_disabled(s, usize::from(b)),
+                    pw.fault_disabled(s, b.min(1)),
                     pw.fctrl,
                     pw.read(0x18E),
                     sm.dismap0(),
                     sm.prsc,
                     sm.val[1],
+                    sm.val[2],
                     sm.val[3],
                     u8::from(pw.mctrl & (1 << s) != 0),
                     sm.dropped_writes,
-                    sm.log[usize::from(b)].pulses
+                    sm.log[b].pulses
                 )
             })
             .collect()
     }
 
-    /// STEP pulses seen on each axis's STEP pin since power-on.
+    /// STEP pulses seen on each axis's STEP pin since power-on (the output
+    /// that drives the pad now).
     pub fn step_pulses(&self) -> [u64; 6] {
-        core::array::from_fn(|i| {
-            let Some(p) = pads::teensy_pad(WIRING.step[i]) else { return 0 };
-            match pads::pwm_function(p) {
-                Some((m, s, b, _)) => self.pwm[m - 1].sm[s].log[usize::from(b)].pulses,
-                None => 0,
-            }
+        core::array::from_fn(|i| match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].pulses,
+            None => 0,
         })
     }
 
@@ -435,7 +504,7 @@ impl Board {
             }
         }
         // encoders -> TMR1/TMR3 channels whose pads are selected
-        for (i, &pin) in WIRING.encoder.iter().enumerate() {
+        for (i, &pin) in wiring().encoder.iter().enumerate() {
             let Some(p) = pads::teensy_pad(pin) else { continue };
             let Some((m, c, alt, daisy)) = pads::qtimer_function(p) else { continue };
             let (pad_alt, _) = self.pad_mux(p);
@@ -444,6 +513,44 @@ impl Board {
             self.tmr[m - 1].advance(c, now, &mut wave);
         }
         self.uart_sync();
+    }
+
+    /// After a debug halt of `cycles`: the blocks that stop in debug mode
+    /// resume where they stopped (PIT if `MCR[FRZ]`, RTWDOG unless
+    /// `CS[DBG]`, CYCCNT always).
+    pub fn debug_halt_time_bases(&mut self, cycles: u64) {
+        if self.pit_mcr & 1 != 0 {
+            for ch in self.pit.iter_mut() {
+                ch.start += cycles;
+            }
+        }
+        if self.wdog.cs & (1 << 2) == 0 {
+            self.wdog.since += cycles;
+        }
+        self.cyccnt_off = self.cyccnt_off.wrapping_sub(cycles as u32);
+    }
+
+    /// Record every FlexPWM output's rising-edge times from now on.
+    pub fn record_edges(&mut self) {
+        self.sync();
+        for p in self.pwm.iter_mut() {
+            p.record = true;
+        }
+    }
+
+    /// The FlexPWM submodule log behind axis `i`'s STEP pin: (module,
+    /// submodule, log index) for a pad muxed to a PWM output, or for pin 7
+    /// routed through XBARA1 the trigger log.
+    pub fn step_source(&self, i: usize) -> Option<(usize, usize, usize)> {
+        self.pad_pwm_source(pads::teensy_pad(wiring().step[i])?)
+    }
+
+    /// Rising-edge times (cycles) recorded on axis `i`'s STEP pin.
+    pub fn step_rises(&self, i: usize) -> Vec<u64> {
+        match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].rises.clone(),
+            None => Vec::new(),
+        }
     }
 
     // ------------------------------------------------------------ PIT
@@ -473,6 +580,37 @@ impl Board {
                 ch.expiries = n;
             }
         }
+    }
+
+    /// Nothing for the image to read on LPUART6 now (RX FIFO empty; bytes
+    /// still on the wire arrive at [`Board::uart_rx_next_event`]).
+    pub fn uart_rx_quiet(&self) -> bool {
+        self.uart.rx_fifo.is_empty()
+    }
+
+    /// When the next host byte lands in the RX FIFO, if one is on its way.
+    pub fn uart_rx_next_event(&self) -> Option<u64> {
+        (!self.uart.rx_pending.is_empty()).then_some(self.uart.rx_next.max(self.now + 1))
+    }
+
+    /// When the LPUART6 transmitter next changes state (the shifter takes
+    /// the next FIFO byte or finishes), if it is busy.
+    pub fn uart_tx_next_event(&self) -> Option<u64> {
+        (self.uart.tx_busy_until > self.now || !self.uart.tx_fifo.is_empty())
+            .then_some(self.uart.tx_busy_until.max(self.now + 1))
+    }
+
+    /// The next PIT expiry (cycles), if a channel runs.
+    pub fn next_pit(&self) -> Option<u64> {
+        let clk = self.pit_clock_cycles();
+        if self.pit_mcr & 2 != 0 {
+            return None;
+        }
+        self.pit
+            .iter()
+            .filter(|ch| ch.tctrl & 1 != 0)
+            .map(|ch| ch.start + (ch.expiries + 1) * (u64::from(ch.ldval) + 1) * clk)
+            .min()
     }
 
     /// Next time anything needs the CPU's attention (PIT expiry, watchdog).
@@ -796,6 +934,7 @@ impl Board {
 
     /// Peripheral write.
     pub fn write(&mut self, addr: u32, size: usize, value: u32) {
+        self.last_write_at = self.now;
         self.write_inner(addr, size, value);
         let next = self.next_event().max(self.now + 1);
         self.stop_at = self.stop_at.min(next);
@@ -825,6 +964,9 @@ impl Board {
                 let i = off as usize + k;
                 if i < 132 {
                     self.xbar[i] = b & 0x7F;
+                    if let Some(src) = self.xbar_trigger_source(i) {
+                        self.xbar_last_trigger.insert(i, src);
+                    }
                 }
             }
             return;

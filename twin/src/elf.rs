@@ -22,6 +22,9 @@ pub struct Image {
     pub segments: Vec<Segment>,
     /// Function and object symbols: name -> address (thumb bit cleared).
     pub symbols: HashMap<String, u32>,
+    /// defmt's level markers (`__DEFMT_MARKER_*`): name -> value (an offset
+    /// in `.defmt`, one byte per interned log string).
+    pub defmt_markers: HashMap<String, u32>,
 }
 
 fn u16_at(b: &[u8], o: usize) -> Result<u16, String> {
@@ -57,6 +60,7 @@ impl Image {
             }
         }
         let mut symbols = HashMap::new();
+        let mut defmt_markers = HashMap::new();
         for i in 0..shnum {
             let s = shoff + i * shentsize;
             if u32_at(b, s + 4)? != 2 {
@@ -72,18 +76,34 @@ impl Image {
                 let name_off = u32_at(b, e)? as usize;
                 let value = u32_at(b, e + 4)?;
                 let info = b.get(e + 12).copied().unwrap_or(0);
-                if !matches!(info & 0xF, 1 | 2) {
-                    continue; // functions and objects only
-                }
                 let start = stroff + name_off;
                 let end = b[start..].iter().position(|&c| c == 0).map(|n| start + n).unwrap_or(start);
                 let name = String::from_utf8_lossy(&b[start..end]).into_owned();
+                if name.starts_with("__DEFMT_MARKER_") {
+                    defmt_markers.insert(name, value);
+                    continue;
+                }
+                if !matches!(info & 0xF, 1 | 2) {
+                    continue; // functions and objects only
+                }
                 if !name.is_empty() {
                     symbols.entry(name).or_insert(value & !1);
                 }
             }
         }
-        Ok(Image { segments, symbols })
+        Ok(Image { segments, symbols, defmt_markers })
+    }
+
+    /// defmt log statements compiled in, per level (`ERROR`, `WARN`,
+    /// `INFO`, `DEBUG`, `TRACE`): `_END - _START` of each level's markers.
+    pub fn defmt_log_statements(&self) -> Vec<(&'static str, u32)> {
+        ["ERROR", "WARN", "INFO", "DEBUG", "TRACE"]
+            .iter()
+            .map(|l| {
+                let m = |e: &str| self.defmt_markers.get(&format!("__DEFMT_MARKER_{l}_{e}")).copied().unwrap_or(0);
+                (*l, m("END").saturating_sub(m("START")))
+            })
+            .collect()
     }
 
     /// Nearest symbol at or below `addr` (for diagnostics).

@@ -10,6 +10,7 @@ pub mod plant;
 pub mod pty;
 pub mod pwm;
 pub mod qtimer;
+pub mod scenario;
 
 pub use board::{Board, CPU_HZ};
 pub use machine::{Fault, Twin};

@@ -22,6 +22,10 @@ const FAST_GPIO: u64 = 0x4200_0000;
 const PPB: u64 = 0xE000_0000;
 /// Return address given to handlers; a `b .` lives there.
 const SENTINEL: u64 = 0x7000_0000;
+/// Thread code that ran this many cycles without an MMIO write, with no
+/// received byte waiting in the LPUART6 FIFO, is idle (see
+/// [`Twin::run_until`]).
+pub const IDLE_CYCLES: u64 = 5_000;
 
 /// Why a run stopped with an error.
 #[derive(Debug)]
@@ -52,6 +56,10 @@ pub struct Stats {
     pub stop_mismatch: u64,
     /// Chip resets by the watchdog.
     pub watchdog_resets: u64,
+    /// Idle main-loop stretches skipped, and the cycles skipped.
+    pub idle_skips: u64,
+    /// Cycles skipped as idle.
+    pub idle_cycles: u64,
 }
 
 /// The twin: CPU + board.
@@ -127,7 +135,11 @@ impl Twin {
                 count_thumb(&code)
             });
             let b = uc.get_data_mut();
-            if b.now >= b.stop_at || addr == SENTINEL {
+            let idle = b.idle_skip
+                && b.idle_skip_allowed
+                && b.now.saturating_sub(b.last_write_at) > IDLE_CYCLES
+                && b.uart_rx_quiet();
+            if b.now >= b.stop_at || addr == SENTINEL || idle {
                 // Never stop inside an IT block: restarting writes the PC,
                 // which loses ITSTATE (the rest of the block would run
                 // unconditionally). Stop at the next block instead.
@@ -136,7 +148,9 @@ impl Twin {
                     // Unicorn stops before this block's body runs; it is
                     // counted when it runs after the restart.
                     let _ = uc.emu_stop();
-                    uc.get_data_mut().stopped_at = Some(addr as u32);
+                    let b = uc.get_data_mut();
+                    b.stopped_at = Some(addr as u32);
+                    b.idle_stop = idle && b.now < b.stop_at;
                     return;
                 }
                 uc.get_data_mut().it_deferred += 1;
@@ -251,6 +265,11 @@ impl Twin {
                 stop = stop.max(now + 1).min(now + 200);
             }
             b.stop_at = stop.max(now + 1);
+            // Idle skipping: only thread code (no handler running) after the
+            // image enabled the PIT interrupt, i.e. its main loop.
+            let pit_enabled = self.board().nvic_en[(IRQ_PIT / 32) as usize] & (1 << (IRQ_PIT % 32)) != 0;
+            let allowed = self.in_handler.is_none() && pit_enabled && !pending;
+            self.board_mut().idle_skip_allowed = allowed;
             let pc = self.next_pc.take().unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0));
             if std::env::var_os("TWIN_DEBUG").is_some() && now < 100_000 || std::env::var_os("TWIN_DEBUG_ALL").is_some()
             {
@@ -266,6 +285,26 @@ impl Twin {
             if let Err(err) = r {
                 return Err(self.fault(format!("CPU stopped: {err:?}")));
             }
+            if std::mem::take(&mut self.board_mut().idle_stop) {
+                // The main loop spins without writing a peripheral: what it
+                // polls changes next at the next PIT interrupt (the only
+                // interrupt), the next LPUART6 transmitter step or the next
+                // received byte, so the
+                // spinning is skipped: time jumps there, as if the loop had
+                // run (CYCCNT follows `now`).
+                let b = self.board_mut();
+                let mut target = b.next_pit().unwrap_or(t_end).min(t_end);
+                for u in [b.uart_tx_next_event(), b.uart_rx_next_event()].into_iter().flatten() {
+                    target = target.min(u);
+                }
+                if target > b.now {
+                    let d = target - b.now;
+                    b.now = target;
+                    b.last_write_at = target;
+                    self.stats.idle_skips += 1;
+                    self.stats.idle_cycles += d;
+                }
+            }
             if pc == SENTINEL {
                 let Some(ctx) = self.in_handler.take() else {
                     return Err(self.fault("returned to the sentinel outside a handler".into()));
@@ -273,6 +312,9 @@ impl Twin {
                 self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
             }
         }
+        // bring the peripherals and the plant up to the end time (a CPU
+        // spinning without MMIO accesses does not sync them)
+        self.board_mut().sync();
         Ok(())
     }
 
@@ -298,6 +340,72 @@ impl Twin {
             self.stats.pit_entries.push(now);
         }
         Ok(())
+    }
+
+    /// Take exception `vector` (vector-table index: 3 = HardFault, 16 + n
+    /// = IRQ n) now, as the core would on a fault: the context is saved
+    /// (the PIT is then not delivered, as a HardFault's priority -1 blocks
+    /// it), `LR` = `EXC_RETURN` 0xFFFF_FFF9 (thread mode, main stack, so
+    /// cortex-m-rt's HardFault trampoline passes the MSP frame), `PC` = the
+    /// image's own vector. The handlers under test never return.
+    pub fn take_exception(&mut self, vector: u32) -> Result<u32, Fault> {
+        let vtor = self.board().vtor;
+        let handler = read_u32(&self.uc, u64::from(vtor) + 4 * u64::from(vector)).map_err(|w| self.fault(w))?;
+        self.enter_at(handler, 0xFFFF_FFF9, &[])?;
+        Ok(handler)
+    }
+
+    /// Call the image's function `name` as if from the current context
+    /// (`r0..` = `args`; return to the sentinel, context restored then), e.g.
+    /// the panic handler `rust_begin_unwind`.
+    pub fn call_symbol(&mut self, name: &str, args: &[u32]) -> Result<u32, Fault> {
+        let Some(a) = self.symbol(name) else {
+            return Err(self.fault(format!("no symbol {name}")));
+        };
+        self.enter_at(a, (SENTINEL | 1) as u32, args)?;
+        Ok(a)
+    }
+
+    fn enter_at(&mut self, target: u32, lr: u32, args: &[u32]) -> Result<(), Fault> {
+        let e = |x: unicorn_engine::uc_error| format!("{x:?}");
+        if self.in_handler.is_some() {
+            return Err(self.fault("already in a handler".into()));
+        }
+        let mut ctx = self.uc.context_alloc().map_err(|x| self.fault(e(x)))?;
+        self.uc.context_save(&mut ctx).map_err(|x| self.fault(e(x)))?;
+        let sp = self.uc.reg_read(RegisterARM::SP).unwrap_or(0);
+        let nsp = (sp - 104) & !7;
+        let regs = [RegisterARM::R0, RegisterARM::R1, RegisterARM::R2, RegisterARM::R3];
+        let mut ok = self.uc.reg_write(RegisterARM::SP, nsp).is_ok()
+            && self.uc.reg_write(RegisterARM::LR, u64::from(lr)).is_ok();
+        for (r, &v) in regs.iter().zip(args) {
+            ok &= self.uc.reg_write(*r, u64::from(v)).is_ok();
+        }
+        if !ok {
+            return Err(self.fault("cannot enter the handler".into()));
+        }
+        self.next_pc = Some(u64::from(target & !1));
+        self.in_handler = Some(ctx);
+        Ok(())
+    }
+
+    /// A debugger halts the core for `cycles`: no instruction runs;
+    /// peripherals keep their clocks except where their debug-mode bits
+    /// say otherwise: FlexPWM submodules with `CTRL2[DBGEN] = 0` stop, the
+    /// PIT stops if `MCR[FRZ]`, the RTWDOG stops unless `CS[DBG]`, DWT
+    /// CYCCNT stops (the core's clock is held).
+    pub fn debug_halt(&mut self, cycles: u64) {
+        let b = self.board_mut();
+        b.sync();
+        for p in b.pwm.iter_mut() {
+            p.debug_halted = true;
+        }
+        b.now += cycles;
+        b.sync();
+        for p in b.pwm.iter_mut() {
+            p.debug_halted = false;
+        }
+        b.debug_halt_time_bases(cycles);
     }
 
     /// Address of a symbol.
@@ -342,6 +450,7 @@ fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
 }
 
 fn ppb_write(b: &mut Board, a: u32, v: u32) {
+    b.last_write_at = b.now;
     match a & !3 {
         0xE000_1000 => {
             // entering/leaving the enabled state keeps the count continuous

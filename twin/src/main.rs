@@ -1,7 +1,9 @@
 //! `twin boot [ms]`: boot the image, print Serial1 output and figures.
 //! `twin home [ms]`: boot, send `<HOME>`, print joint angles and STEP counts.
 //! `twin live`: LPUART6 on a pseudo-terminal (its path is printed); runs
-//! until interrupted, as fast as it can (slower than real time).
+//! until interrupted, at most at real time.
+//! `twin run FILE.scn`: a simulator scenario on the image: its event lines
+//! with times, the anchors, the final joint angles, the speed.
 
 use std::time::Instant;
 
@@ -10,6 +12,17 @@ use twin::{load_image, Plant, Twin, MS};
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let cmd = args.get(1).map(String::as_str).unwrap_or("boot");
+    if cmd == "run" {
+        let Some(file) = args.get(2) else {
+            eprintln!("twin: run FILE.scn");
+            std::process::exit(2);
+        };
+        if let Err(e) = run_scenario(file) {
+            eprintln!("twin: {e}");
+            std::process::exit(1);
+        }
+        return;
+    }
     let ms: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(200);
     if let Err(e) = run(cmd, ms) {
         eprintln!("twin: {e}");
@@ -58,6 +71,35 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}; stops deferred out of IT blocks {}; stop mismatches {}",
         b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
     );
+    println!(
+        "idle main loop skipped: {} times, {:.1} % of simulated time (TWIN_NO_IDLE_SKIP=1 turns it off)",
+        t.stats.idle_skips,
+        100.0 * t.stats.idle_cycles as f64 / b.now.max(1) as f64
+    );
+    Ok(())
+}
+
+fn run_scenario(file: &str) -> Result<(), String> {
+    let sc = sim::scenario::Scenario::from_file(std::path::Path::new(file)).map_err(|e| format!("{e:#}"))?;
+    let elf = load_image()?;
+    let o = twin::scenario::run(&sc, &elf)?;
+    println!("scenario {}: {}", sc.name, sc.description);
+    for s in &o.skipped {
+        println!("skipped (not supported by the twin): {s}");
+    }
+    for (t, l) in &o.events {
+        println!("{t:>7} ms  {l}");
+    }
+    for a in sim::scenario::Anchor::ALL {
+        println!("{}: {:?}", a.name(), o.anchors[a.index()]);
+    }
+    println!("q at {} ms = {:?}", o.end_ms, o.q);
+    println!(
+        "simulated {:.1} s in {:.1} s wall ({:.2} x real time)",
+        o.end_ms as f64 / 1000.0,
+        o.wall_s,
+        o.end_ms as f64 / 1000.0 / o.wall_s
+    );
     Ok(())
 }
 
@@ -76,6 +118,12 @@ fn live(mut t: Twin) -> Result<(), String> {
         }
         let next = (t.now() / MS + 1) * MS;
         t.run_until(next).map_err(|f| f.to_string())?;
+        // never ahead of real time (idle skipping can make the twin faster
+        // than the chip): a client sees the image's own timing
+        let ahead = t.now() as f64 / (1000 * MS) as f64 - wall.elapsed().as_secs_f64();
+        if ahead > 0.0 {
+            std::thread::sleep(std::time::Duration::from_secs_f64(ahead));
+        }
         let out: Vec<u8> = t.board().uart.tx_out[sent..].iter().map(|&(_, b)| b).collect();
         sent += out.len();
         pty.write(&out);

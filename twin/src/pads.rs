@@ -152,8 +152,18 @@ pub const fn qtimer_function(p: Pad) -> Option<QtimerInput> {
     }
 }
 
-/// The default wiring the twin connects (J1..J6), from ROBOT.md section 2
-/// with J6 STEP on pin 36 as the firmware's default map documents.
+/// IOMUX XBAR pin function of a pad: (ALT, XBAR1_INOUT number). Only the
+/// pad the firmware uses is listed: GPIO_B1_01 (pin 7) ALT1 =
+/// `XBAR1_INOUT15` (NXP SDK pin header).
+pub const fn xbar_inout_function(p: Pad) -> Option<(u32, usize)> {
+    match (p.group, p.index) {
+        (Group::B1, 1) => Some((1, 15)),
+        _ => None,
+    }
+}
+
+/// The default wiring the twin connects (J1..J6): ROBOT.md section 2, the
+/// original wiring (J6 STEP on pin 7), the firmware's default map.
 #[derive(Clone, Copy, Debug)]
 pub struct Wiring {
     /// STEP pins.
@@ -168,11 +178,26 @@ pub struct Wiring {
 
 /// Board wiring used by the twin.
 pub const WIRING: Wiring = Wiring {
-    step: [2, 5, 6, 8, 4, 36],
+    step: [2, 5, 6, 8, 4, 7],
     dir: [30, 31, 32, 33, 35, 34],
     encoder: [10, 11, 12, 14, 15, 19],
     limit: [20, 21, 22, 23, 24, 25],
 };
+
+/// The wiring the twin connects: [`WIRING`], or with `TWIN_J6_PIN=36` in
+/// the environment J6 STEP on pin 36 (for images built with the firmware's
+/// `j6-pin36` feature or before issue 11 defect 8, e.g. to reproduce a
+/// test's figures on the image of an older commit).
+pub fn wiring() -> &'static Wiring {
+    static W: std::sync::OnceLock<Wiring> = std::sync::OnceLock::new();
+    W.get_or_init(|| {
+        let mut w = WIRING;
+        if std::env::var("TWIN_J6_PIN").is_ok_and(|v| v.trim() == "36") {
+            w.step[5] = 36;
+        }
+        w
+    })
+}
 
 /// IOMUXC offsets of the LPUART6 pads and daisy registers.
 pub const LPUART6_RX_SELECT: u32 = 0x550;

@@ -6,9 +6,12 @@
 //! `VAL4`/`VAL5` (edge-aligned, counter starting at `INIT`). Double
 //! buffering: `INIT`, `VALx` and `CTRL[PRSC]` are written to buffers; a write
 //! while the submodule's `LDOK` is set is **ignored**; buffers load at the
-//! next full-cycle reload (`CTRL[FULL]`) when `LDOK` is set, immediately if
-//! `LDMOD = 1`, and when `RUN` goes 0 -> 1 with `LDOK` set; `LDOK` then
-//! clears (`CLDOK` clears it by software). `CTRL2[FORCE]` with `FRCEN` and
+//! next full-cycle reload (`CTRL[FULL]`) when `LDOK` is set, or immediately
+//! upon `LDOK` being set if `LDMOD = 1` (imxrt-ral `SMCTRL[LDMOD]` field
+//! docs); `LDOK` then clears (`CLDOK` clears it by software). Setting `RUN`
+//! loads nothing (the field docs name no such load; an earlier version of
+//! this model loaded on `RUN` 0 -> 1 and so hid issue 11 defect 3): the
+//! counter starts from its current value with the active registers. `CTRL2[FORCE]` with `FRCEN` and
 //! `FORCE_SEL = 0` re-initialises the counter to `INIT` (no buffer load).
 //! `MASK` (with `UPDATE_MASK`: immediately; otherwise at the next reload)
 //! forces an output to 0; `OUTEN` enables the pad driver.
@@ -23,9 +26,18 @@
 //! timing and `FSAFE`/`FAUTO` differences are not modelled).
 //!
 //! Not modelled: complementary mode, dead time, half-cycle reloads, `LDFQ`,
-//! fractional delay, input capture, DMA/interrupts, `DBGEN` (the core never
-//! halts in the twin), `SWCOUT`/`DTSRCSEL` other than 0, center-aligned
-//! waveforms with a signed `INIT`.
+//! fractional delay, input capture, DMA/interrupts, `WAITEN`,
+//! `SWCOUT`/`DTSRCSEL` other than 0, center-aligned waveforms with a signed
+//! `INIT`.
+//!
+//! `CTRL2[DBGEN]`: while [`FlexPwm::debug_halted`] (a debugger halts the
+//! core, see `Twin::debug_halt`) a submodule with `DBGEN = 0` stops
+//! counting; with `DBGEN = 1` it keeps running.
+//!
+//! Trigger output `PWM_OUT_TRIG0` (`TCTRL[PWAOT0] = 1`): the PWM_A
+//! waveform itself, ahead of `MASK`, `OUTEN` and the fault logic (they act
+//! on the pad outputs only), towards XBARA1. [`OutputLog`] index 2 counts
+//! its rising edges when [`PadRoute::trig0`] says it reaches a pad.
 
 /// One output's observed pulses.
 #[derive(Clone, Debug, Default)]
@@ -64,11 +76,30 @@ pub struct Submodule {
     pub t_cnt: u64,
     /// Writes dropped because LDOK was set (diagnostic).
     pub dropped_writes: u64,
-    /// Output logs A, B.
-    pub log: [OutputLog; 2],
+    /// Output logs A, B, and `PWM_OUT_TRIG0` (index 2).
+    pub log: [OutputLog; 3],
     /// The counter was (re)initialised to INIT at `t_cnt` and the compare
     /// at INIT has not been evaluated yet.
     pub at_start: bool,
+    /// `RUN` went 0 -> 1 and the first compare at the start has not been
+    /// evaluated yet.
+    pub just_started: bool,
+    /// Starts (`RUN` 0 -> 1).
+    pub starts: u64,
+    /// Starts whose active period (`VAL1`, `PRSC`) differed from the
+    /// buffered one written for it: the first period ran at a stale rate
+    /// (issue 11 defect 3). (active, buffered) period in cycles of the last.
+    pub stale_starts: u64,
+    /// The last stale start: (active, buffered) period in CPU cycles.
+    pub last_stale: Option<(u64, u64)>,
+    /// Rising edges at the very instant of a start (issue 11 defect 4).
+    pub rises_at_start: u64,
+    /// Start times (cycles; the time of the last sync before the `RUN`
+    /// write), bounded.
+    pub start_times: Vec<u64>,
+    /// `PWM_OUT_TRIG0` rising edges that reached a pad while PWM_A was
+    /// masked (`MASK` does not gate the trigger path in this model).
+    pub trig_rises_masked: u64,
 }
 
 impl Submodule {
@@ -88,8 +119,15 @@ impl Submodule {
             cnt: 0,
             t_cnt: 0,
             dropped_writes: 0,
-            log: [OutputLog::default(), OutputLog::default()],
+            log: [OutputLog::default(), OutputLog::default(), OutputLog::default()],
             at_start: false,
+            just_started: false,
+            starts: 0,
+            stale_starts: 0,
+            last_stale: None,
+            rises_at_start: 0,
+            start_times: Vec::new(),
+            trig_rises_masked: 0,
         }
     }
     /// DISMAP0.
@@ -98,6 +136,14 @@ impl Submodule {
     }
     fn cycles_per_count(&self) -> u64 {
         4u64 << self.prsc
+    }
+    /// `TCTRL[PWAOT0]`: PWM_A drives `PWM_OUT_TRIG0`.
+    pub fn pwaot0(&self) -> bool {
+        self.other[0x2A / 2] & (1 << 15) != 0
+    }
+    /// `CTRL2[DBGEN]`.
+    pub fn dbgen(&self) -> bool {
+        self.ctrl2 & (1 << 15) != 0
     }
     fn load(&mut self) {
         self.init = self.b_init;
@@ -111,6 +157,8 @@ impl Submodule {
 pub struct PadRoute {
     /// The pad of output [A, B] of each submodule is muxed to this PWM.
     pub routed: [[bool; 2]; 4],
+    /// `PWM_OUT_TRIG0` of each submodule reaches a pad (through XBARA1).
+    pub trig0: [bool; 4],
 }
 
 /// One FlexPWM module.
@@ -136,6 +184,8 @@ pub struct FlexPwm {
     pub fault_in: [bool; 4],
     /// Keep the rising-edge times of each output (tests).
     pub record: bool,
+    /// A debugger halts the core (submodules with `DBGEN = 0` stop).
+    pub debug_halted: bool,
 }
 
 impl FlexPwm {
@@ -152,6 +202,7 @@ impl FlexPwm {
             other: [0; 0x10],
             fault_in: [false; 4],
             record: false,
+            debug_halted: false,
         }
     }
 
@@ -197,12 +248,15 @@ impl FlexPwm {
     pub fn advance(&mut self, t: u64, route: &PadRoute) {
         self.update_faults();
         for s in 0..4 {
-            if !self.running(s) {
+            if !self.running(s) || (self.debug_halted && !self.sm[s].dbgen()) {
                 self.sm[s].t_cnt = t;
                 continue;
             }
             loop {
-                let live = [self.output_live(s, 0, route), self.output_live(s, 1, route)];
+                let trig = route.trig0[s] && self.sm[s].pwaot0();
+                let live = [self.output_live(s, 0, route), self.output_live(s, 1, route), trig];
+                let masked_a = self.mask & (1 << (8 + s)) != 0;
+                let before = self.sm[s].log[2].pulses;
                 let record = self.record;
                 let ldok = self.ldok(s);
                 let sm = &mut self.sm[s];
@@ -211,9 +265,14 @@ impl FlexPwm {
                         break;
                     }
                     sm.at_start = false;
+                    let started = std::mem::take(&mut sm.just_started);
                     for (b, &on) in live.iter().enumerate() {
-                        if on && sm.val[2 + 2 * b] == sm.cnt && sm.val[3 + 2 * b] > sm.cnt {
+                        let c = if b == 2 { 0 } else { b };
+                        if on && sm.val[2 + 2 * c] == sm.cnt && sm.val[3 + 2 * c] > sm.cnt {
                             note_rise(&mut sm.log[b], sm.t_cnt, record);
+                            if started {
+                                sm.rises_at_start += 1;
+                            }
                         }
                     }
                 }
@@ -230,20 +289,25 @@ impl FlexPwm {
                 if elapsed < to_end {
                     // stays within the period: count edges strictly after cnt up to cnt+elapsed
                     for (b, &on) in live.iter().enumerate() {
-                        let on_at = sm.val[2 + 2 * b];
-                        if on && on_at > sm.cnt && u64::from(on_at - sm.cnt) <= elapsed && sm.val[3 + 2 * b] > on_at {
+                        let c = if b == 2 { 0 } else { b };
+                        let on_at = sm.val[2 + 2 * c];
+                        if on && on_at > sm.cnt && u64::from(on_at - sm.cnt) <= elapsed && sm.val[3 + 2 * c] > on_at {
                             let tr = sm.t_cnt + u64::from(on_at - sm.cnt) * cpc;
                             note_rise(&mut sm.log[b], tr, record);
                         }
                     }
                     sm.cnt = sm.cnt.wrapping_add(elapsed as u16);
                     sm.t_cnt += elapsed * cpc;
+                    if masked_a {
+                        sm.trig_rises_masked += sm.log[2].pulses - before;
+                    }
                     break;
                 }
                 // finish the period: edges after cnt up to top
                 for (b, &on) in live.iter().enumerate() {
-                    let on_at = sm.val[2 + 2 * b];
-                    if on && on_at > sm.cnt && on_at <= top && sm.val[3 + 2 * b] > on_at {
+                    let c = if b == 2 { 0 } else { b };
+                    let on_at = sm.val[2 + 2 * c];
+                    if on && on_at > sm.cnt && on_at <= top && sm.val[3 + 2 * c] > on_at {
                         let tr = sm.t_cnt + u64::from(on_at - sm.cnt) * cpc;
                         note_rise(&mut sm.log[b], tr, record);
                     }
@@ -256,6 +320,9 @@ impl FlexPwm {
                 }
                 self.mask = self.mask_buf;
                 let sm = &mut self.sm[s];
+                if masked_a {
+                    sm.trig_rises_masked += sm.log[2].pulses - before;
+                }
                 sm.cnt = sm.init;
                 sm.at_start = true;
             }
@@ -360,12 +427,26 @@ impl FlexPwm {
                 for s in 0..4 {
                     let started = old & (1 << (8 + s)) == 0 && n & (1 << (8 + s)) != 0;
                     let ldok = self.mctrl & (1 << s) != 0;
-                    if ldok && (started || (self.sm[s].ctrl & 0x0004 != 0)) {
+                    // LDMOD = 1: load upon LDOK being set (RUN loads nothing)
+                    if ldok && self.sm[s].ctrl & 0x0004 != 0 {
                         self.sm[s].load();
                         self.mctrl &= !(1 << s);
                     }
                     if started {
-                        self.sm[s].at_start = true;
+                        let sm = &mut self.sm[s];
+                        sm.at_start = true;
+                        sm.just_started = true;
+                        sm.starts += 1;
+                        if sm.start_times.len() < 100_000 {
+                            let at = sm.t_cnt;
+                            sm.start_times.push(at);
+                        }
+                        let active = (u64::from(sm.val[1]) + 1) * (4 << sm.prsc);
+                        let buffered = (u64::from(sm.b_val[1]) + 1) * (4 << ((sm.ctrl >> 4) & 7));
+                        if active != buffered {
+                            sm.stale_starts += 1;
+                            sm.last_stale = Some((active, buffered));
+                        }
                     }
                 }
             }
@@ -412,14 +493,16 @@ fn note_rise(log: &mut OutputLog, t: u64, record: bool) {
 mod tests {
     use super::*;
 
-    const ALL: PadRoute = PadRoute { routed: [[true; 2]; 4] };
+    const ALL: PadRoute = PadRoute { routed: [[true; 2]; 4], trig0: [false; 4] };
 
     /// Submodule 0, output A: period `val1 + 1` counts, pulse `val3`.
     fn start(p: &mut FlexPwm, val1: u16, val3: u16) {
         p.write(0x0E, val1);
         p.write(0x16, val3);
         p.write(0x180, 1 << 8); // OUTEN PWMA_EN0
-        p.write(0x188, 1); // LDOK
+        p.write(0x06, 0x0404); // FULL, LDMOD = 1
+        p.write(0x188, 1); // LDOK: loads now
+        p.write(0x06, 0x0400); // LDMOD = 0
         p.write(0x188, 1 << 8); // RUN
         p.settle_time(0);
     }
@@ -512,5 +595,56 @@ mod tests {
         p.write(0x04, 0x00C0); // FRCEN | FORCE, FORCE_SEL = 0
         assert_eq!(p.sm[0].cnt, 0);
         assert_eq!(p.sm[0].val[1], 999, "FORCE is not a reload");
+    }
+
+    /// `RUN` 0 -> 1 with `LDOK` set and `LDMOD = 0` loads nothing: the
+    /// first period runs with the active values (a stale start is counted);
+    /// the buffers load at the first reload.
+    #[test]
+    fn run_does_not_load_ldmod0_waits_for_the_reload() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000);
+        p.write(0x18E, 0x000F);
+        start(&mut p, 999, 10);
+        p.write(0x188, 0); // RUN = 0
+        p.write(0x0E, 99);
+        p.write(0x188, 1); // LDOK, LDMOD = 0
+        p.write(0x04, 0x00C0); // FORCE
+        p.write(0x188, 1 << 8); // RUN
+        assert_eq!(p.sm[0].val[1], 999, "RUN is not a load");
+        assert_eq!(p.sm[0].stale_starts, 1);
+        assert_eq!(p.sm[0].last_stale, Some((4000, 400)));
+        p.advance(4000, &ALL);
+        assert_eq!(p.sm[0].val[1], 99, "loaded at the first reload");
+    }
+
+    /// `DBGEN = 0`: a halted core stops the counter; `DBGEN = 1` keeps it.
+    #[test]
+    fn dbgen_decides_whether_a_debug_halt_stops_the_counter() {
+        for (dbgen, want) in [(false, 0), (true, 10)] {
+            let mut p = FlexPwm::new();
+            p.write(0x18C, 0xF000);
+            p.write(0x18E, 0x000F);
+            p.write(0x04, if dbgen { 0x8000 } else { 0 });
+            start(&mut p, 99, 10);
+            p.debug_halted = true;
+            p.advance(4000 - 1, &ALL);
+            assert_eq!(p.sm[0].log[0].pulses, want, "DBGEN = {dbgen}");
+        }
+    }
+
+    /// `PWM_OUT_TRIG0` follows PWM_A ahead of `MASK` and `OUTEN`.
+    #[test]
+    fn trigger_output_ignores_mask_and_outen() {
+        let mut p = FlexPwm::new();
+        p.write(0x18C, 0xF000);
+        p.write(0x18E, 0x000F);
+        p.write(0x2A, 1 << 15); // TCTRL0 PWAOT0
+        start(&mut p, 99, 10);
+        p.write(0x182, (1 << 8) | (1 << 12)); // MASK A0, UPDATE_MASK
+        let route = PadRoute { routed: [[false; 2]; 4], trig0: [true, false, false, false] };
+        p.advance(4000 - 1, &route);
+        assert_eq!(p.sm[0].log[0].pulses, 0);
+        assert_eq!(p.sm[0].log[2].pulses, 10, "MASK does not gate the trigger");
     }
 }

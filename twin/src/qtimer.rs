@@ -41,6 +41,8 @@ const CNTR: usize = 5;
 const CTRL: usize = 6;
 const SCTRL: usize = 7;
 const CAPT: usize = 2;
+/// Index of `FILT` in [`Channel::r`] (offset 0x16).
+pub const FILT: usize = 11;
 
 /// A QuadTimer module.
 #[derive(Clone, Debug)]

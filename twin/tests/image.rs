@@ -10,8 +10,12 @@ fn run(t: &mut Twin, until_ms: u64) {
     }
 }
 
+/// Complete lines on Serial1 (a line still being sent when the run stops
+/// is left out).
 fn lines(t: &Twin) -> Vec<String> {
-    t.board().serial_text().lines().map(str::to_owned).collect()
+    let text = t.board().serial_text();
+    let done = text.rfind('\n').map_or("", |i| &text[..i]);
+    done.lines().map(str::to_owned).collect()
 }
 
 /// A driver-dialect feedback line `<ACK,seq,p1,v1,...,p6,v6,H<d>>` (the

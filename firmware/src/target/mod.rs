@@ -36,7 +36,7 @@ use hal_imxrt::periph::watchdog::Watchdog;
 use hal_imxrt::periph::{clocks, iomux, panic_stop};
 use hal_imxrt::pure::clock::{pit_load_value, rtwdog_toval, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US};
 use hal_imxrt::pure::frame::Snapshot;
-use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
+use hal_imxrt::pure::pins::PinMap;
 use hal_imxrt::pure::step::StepCommand;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
@@ -48,8 +48,13 @@ use protocol::report::config_fingerprint;
 #[cfg(feature = "tmc5160-selftest")]
 compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wiring in the pin map)");
 
-/// The pin map (checked at compile time by `PinMap::validated`).
-const MAP: PinMap = DEFAULT_PIN_MAP;
+/// The pin map (checked at compile time by `PinMap::validated`): the
+/// original wiring (J6 STEP on pin 7 through XBARA1), or J6 on pin 36 with
+/// the `j6-pin36` feature.
+#[cfg(not(feature = "j6-pin36"))]
+const MAP: PinMap = hal_imxrt::pure::pins::DEFAULT_PIN_MAP;
+#[cfg(feature = "j6-pin36")]
+const MAP: PinMap = hal_imxrt::pure::pins::J6_PIN36_PIN_MAP;
 /// PIT reload for 1 kHz from the 24 MHz PERCLK that `clocks::configure` sets.
 const PIT_LDVAL: u32 = match pit_load_value(OSC_HZ, TICK_HZ) {
     Ok(v) => v,
@@ -190,7 +195,9 @@ fn main() -> ! {
         halt()
     }
     let gpios = Gpios::new(inst.GPIO1, inst.GPIO2, inst.GPIO3, inst.GPIO4);
-    let Ok(steps) = StepOutputs::new(inst.PWM1, inst.PWM2, inst.PWM3, inst.PWM4, &gpios, &MAP) else { halt() };
+    let Ok(steps) = StepOutputs::new(inst.PWM1, inst.PWM2, inst.PWM3, inst.PWM4, inst.XBARA1, &gpios, &MAP) else {
+        halt()
+    };
     let Ok(limits) = Limits::new(&gpios, &MAP) else { halt() };
     let Ok(capture) = FrameCapture::new(inst.TMR1, inst.TMR3, &MAP) else { halt() };
     let serial1 = Serial1::new(inst.LPUART6, BAUD);
@@ -308,12 +315,19 @@ fn halt() -> ! {
     }
 }
 
-#[panic_handler]
-fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+/// The last-resort stop shared by the panic handler, the HardFault handler
+/// and the default handler (issue 11 defect 5: cortex-m-rt's own HardFault
+/// and DefaultHandler are `loop {}` and left STEP pulsing until the watchdog
+/// reset): interrupts off, every STEP pin low (masked, counter stopped, pad
+/// switched to GPIO driven low), the marker for the next boot
+/// (`SelfTest(0x80)`), the LED on, then wait for the watchdog reset (the
+/// tick no longer feeds it: within 20 ms).
+fn fatal_stop() -> ! {
     cortex_m::interrupt::disable();
     // SAFETY: interrupts are disabled and this function never returns, so
-    // the drivers that own these peripherals never run again; the aliases
-    // are used for the STEP shutdown, the marker and the LED only.
+    // the drivers that own these peripherals never run again (the PIT
+    // handler cannot preempt a HardFault, nor run with PRIMASK set); the
+    // aliases are used for the STEP shutdown, the marker and the LED only.
     unsafe {
         let pwm1 = ral::pwm::PWM1::instance();
         let pwm2 = ral::pwm::PWM2::instance();
@@ -331,9 +345,26 @@ fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
         // 3. signal
         led_on(&io, &gpio2);
     }
-    // The tick no longer feeds the watchdog: the chip resets within 20 ms and
-    // boots into a latched fault (`SelfTest(0x80)`) with the LED on.
     loop {
         cortex_m::asm::nop();
     }
+}
+
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+    fatal_stop()
+}
+
+/// A HardFault (bus/usage/memory fault escalated, or a fault in a handler):
+/// stop stepping at once instead of cortex-m-rt's `loop {}`.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    fatal_stop()
+}
+
+/// Any exception or interrupt without a handler of its own (only the PIT
+/// interrupt is enabled; anything else reaching here is a fault).
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(_irqn: i16) -> ! {
+    fatal_stop()
 }

@@ -129,6 +129,16 @@ pub fn configure_pins(io: &iomuxc::IOMUXC, gpr: &iomuxc_gpr::IOMUXC_GPR, map: &P
             return Err(PinMapError::NotStepCapable(p));
         };
         set_pad(io, tp.pad, PAD_OUTPUT);
+        if let pins::PwmRoute::Xbar { inout, .. } = f.route {
+            // XBAR1_INOUT<n> as an output: IOMUXC_GPR6 bit 12 + n
+            // (IOMUXC_XBAR_DIR_SEL_4..19 at bits 16..31).
+            if (4..=19).contains(&inout) {
+                let bit = 1u32 << (12 + u32::from(inout));
+                ral::modify_reg!(ral::iomuxc_gpr, gpr, GPR6, |r| r | bit);
+            } else {
+                return Err(PinMapError::NotStepCapable(p));
+            }
+        }
         set_mux(io, tp.pad, f.alt as u32);
     }
     for &p in &map.dir {

@@ -2,27 +2,48 @@
 //! the pin map) and DIR on GPIO with a settle time before the next STEP edge.
 //!
 //! Submodule setup: IPG clock, independent outputs, `INIT = 0`,
-//! `VAL1 = period - 1` (full-cycle reload), output high at `VAL2/VAL4 = 0`,
-//! low at `VAL3/VAL5 = pulse`. Changes follow [`plan_update`]:
+//! `VAL1 = period - 1` (full-cycle reload), the pulse at the **end** of the
+//! period: output high at `VAL2/VAL4 = period - 1 - pulse`, low at
+//! `VAL3/VAL5 = period - 1` ([`compares`]). Changes follow [`plan_update`]:
 //!
 //! * `Retime`: `CLDOK` (cancel a load still pending from an earlier update:
 //!   while `LDOK` is set the hardware ignores writes to the buffered
-//!   registers), write `PRSC`/`VAL1`/`VAL3|5`, set `LDOK`: the new values
-//!   load at the next period boundary, so pulses are never truncated, and
-//!   the newest timing replaces one not yet loaded.
+//!   registers), write `PRSC`/`VAL1`/`VAL2|4`/`VAL3|5`, set `LDOK`: the new
+//!   values load at the next period boundary, so pulses are never truncated,
+//!   and the newest timing replaces one not yet loaded.
 //! * `Halt`: set the output's `MASK` bit with `UPDATE_MASK` (immediate; output
 //!   forced low).
 //! * `Restart`: mask, write DIR (if changed), busy-wait the DIR settle time
 //!   (one wait per call, shared by all axes), stop the counter, `CLDOK`,
-//!   write the timing, `LDOK`, software `FORCE` (with `FRCEN`) to re-initialise the
-//!   counter to `INIT`, unmask, run. The first rising edge is at the counter
-//!   restart, after the settle time.
+//!   write the timing, **load it at once** (`CTRL[LDMOD] = 1`, then `LDOK`:
+//!   "buffered registers are loaded and take effect immediately upon LDOK
+//!   being set"; `LDMOD` back to 0 for the retimes), software `FORCE` (with
+//!   `FRCEN`) to re-initialise the counter to `INIT`, unmask, run. The first
+//!   period therefore runs at the new rate (issue 11 defect 3: with
+//!   `LDMOD = 0` the values waited for the next `VAL1` match, i.e. one whole
+//!   period at the old rate, 50 ms after a stop at 20 steps/s), and its
+//!   rising edge comes at the end of that period (defect 4: never at the
+//!   restart itself).
 //!
-//! *Bench* (scope on STEP/DIR): that `UPDATE_MASK` masks immediately, that
-//! `LDOK` while `RUN = 0` followed by `FORCE` starts the new period at once
-//! (reference manual wording, not verified on silicon), and the DIR-to-STEP
-//! delay. Worst case ISR cost of a reversal: 900 cycles (1.5 us) once per
-//! call plus register writes.
+//! `SMCTRL2[DBGEN] = 0`: the counters stop while a debugger halts the core
+//! (issue 11 defect 5), as the PIT and the watchdog do.
+//!
+//! An axis on an XBAR route ([`PwmRoute::Xbar`], J6 on pin 7 in the original
+//! wiring, issue 11 defect 8): `TCTRL[PWAOT0] = 1` makes PWM_A drive the
+//! submodule's `PWM_OUT_TRIG0`, which XBARA1 routes to the pad. The
+//! reference material does not say whether `MASK`/`OUTEN` act on the
+//! trigger path, so masking such an axis **selects XBARA1 input 0
+//! (`LOGIC_LOW`)** for its output (and sets `MASK` as well, harmless if it
+//! acts and needed nowhere else); unmasking selects the trigger input again.
+//! Both are combinational selections between a low input and the trigger:
+//! a stop can truncate a pulse in flight (as `MASK` does) but never makes an
+//! extra edge, and a restart unmasks right after `FORCE`, when the trigger is
+//! low (counter at `INIT`, the pulse sits at the end of the period).
+//!
+//! *Bench* (scope on STEP/DIR): that `UPDATE_MASK` masks immediately, the
+//! first period after a restart, and the DIR-to-STEP delay. Worst case ISR
+//! cost of a reversal: 900 cycles (1.5 us) once per call plus register
+//! writes.
 //!
 //! Buffered registers (`CTRL[PRSC]`, `INIT`, `VAL0..VAL5`) ignore writes
 //! while the submodule's `LDOK` is set (issue 11 defect 2, shown by the
@@ -35,10 +56,14 @@
 use super::cycles::CycleCounter;
 use super::gpio::Gpios;
 use crate::pure::clock::{dir_settle_cycles, CPU_HZ, DIR_SETTLE_NS};
-use crate::pure::pins::{step_fn, teensy41_pin, FlexPwmFn, GpioBit, PinMap, PinMapError, PwmOutput};
-use crate::pure::step::{plan_update, AxisOutput, Direction, StepCommand, StepTiming, UpdatePlan};
+use crate::pure::pins::{
+    step_fn, teensy41_pin, FlexPwmFn, GpioBit, PinMap, PinMapError, PwmOutput, PwmRoute, XBAR_LOGIC_LOW,
+};
+use crate::pure::step::{
+    compares, plan_update, AxisOutput, Direction, StepCommand, StepConfig, StepTiming, UpdatePlan,
+};
 use imxrt_ral as ral;
-use ral::pwm;
+use ral::{pwm, xbara1};
 
 const SETTLE_CYCLES: u32 = dir_settle_cycles(DIR_SETTLE_NS, CPU_HZ);
 
@@ -70,6 +95,7 @@ pub struct StepOutputs {
     pwm2: pwm::PWM2,
     pwm3: pwm::PWM3,
     pwm4: pwm::PWM4,
+    xbar: xbara1::XBARA1,
     axes: [Axis; 6],
 }
 
@@ -87,11 +113,12 @@ impl StepOutputs {
         pwm2: pwm::PWM2,
         pwm3: pwm::PWM3,
         pwm4: pwm::PWM4,
+        xbar: xbara1::XBARA1,
         gpios: &Gpios,
         map: &PinMap,
     ) -> Result<Self, PinMapError> {
         let mut axes = [Axis {
-            pwm: FlexPwmFn { module: 1, submodule: 0, output: PwmOutput::A, alt: 0 },
+            pwm: FlexPwmFn { module: 1, submodule: 0, output: PwmOutput::A, alt: 0, route: PwmRoute::Pad },
             dir: GpioBit { port: 1, bit: 0 },
             out: AxisOutput::INIT,
         }; 6];
@@ -102,10 +129,15 @@ impl StepOutputs {
             let Some(d) = teensy41_pin(dp) else {
                 return Err(PinMapError::UnknownPin(dp));
             };
+            if let PwmRoute::Xbar { inout, .. } = f.route {
+                if !(4..=19).contains(&inout) || f.output != PwmOutput::A {
+                    return Err(PinMapError::NotStepCapable(sp));
+                }
+            }
             a.pwm = f;
             a.dir = d.gpio;
         }
-        let this = Self { pwm1, pwm2, pwm3, pwm4, axes };
+        let this = Self { pwm1, pwm2, pwm3, pwm4, xbar, axes };
         for a in axes {
             gpios.write(a.dir, false);
             gpios.make_output(a.dir);
@@ -150,7 +182,7 @@ impl StepOutputs {
             FRCEN: 1,
             INIT_SEL: 0,
             INDEP: 1,
-            DBGEN: 1
+            DBGEN: 0
         );
         // A load left pending (by a warm reset that kept the peripheral's
         // state) would make the buffered writes below be ignored.
@@ -163,16 +195,43 @@ impl StepOutputs {
         ral::write_reg!(ral::pwm::sm, sm, SMVAL3, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL4, 0);
         ral::write_reg!(ral::pwm::sm, sm, SMVAL5, 0);
-        set_ldok(rb, bit); // loads when the counter first runs
-                           // output enable for our output only
+        set_ldok(rb, bit); // loads at the first reload (a restart loads its own)
+        if let PwmRoute::Xbar { .. } = f.route {
+            // PWM_A drives PWM_OUT_TRIG0 (towards XBARA1)
+            ral::write_reg!(ral::pwm::sm, sm, SMTCTRL, PWAOT0: 1);
+        }
+        // output enable for our output only
         match f.output {
             PwmOutput::A => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 8)),
             PwmOutput::B => ral::modify_reg!(ral::pwm, rb, OUTEN, |v| v | (bit << 4)),
         }
     }
 
+    /// Select XBARA1 `input` for output `out` (4..=19; `SELn` holds outputs
+    /// 2n and 2n + 1 in its low and high byte).
+    fn xbar_select(&self, out: u8, input: u8) {
+        let shift = if out & 1 == 0 { 0 } else { 8 };
+        let m = 0x7Fu16 << shift;
+        let v = u16::from(input & 0x7F) << shift;
+        let x = &self.xbar;
+        match out / 2 {
+            2 => ral::modify_reg!(ral::xbara1, x, SEL2, |r| (r & !m) | v),
+            3 => ral::modify_reg!(ral::xbara1, x, SEL3, |r| (r & !m) | v),
+            4 => ral::modify_reg!(ral::xbara1, x, SEL4, |r| (r & !m) | v),
+            5 => ral::modify_reg!(ral::xbara1, x, SEL5, |r| (r & !m) | v),
+            6 => ral::modify_reg!(ral::xbara1, x, SEL6, |r| (r & !m) | v),
+            7 => ral::modify_reg!(ral::xbara1, x, SEL7, |r| (r & !m) | v),
+            8 => ral::modify_reg!(ral::xbara1, x, SEL8, |r| (r & !m) | v),
+            9 => ral::modify_reg!(ral::xbara1, x, SEL9, |r| (r & !m) | v),
+            _ => {} // refused by `new`
+        }
+    }
+
     /// Mask (force low) or unmask the axis output immediately.
     fn mask(&self, f: FlexPwmFn, masked: bool) {
+        if let PwmRoute::Xbar { inout, input } = f.route {
+            self.xbar_select(inout, if masked { XBAR_LOGIC_LOW } else { input });
+        }
         let rb = self.block(f.module);
         let bit = 1u16 << (f.submodule & 3);
         let m = match f.output {
@@ -187,23 +246,36 @@ impl StepOutputs {
         }
     }
 
-    /// `CLDOK`, the buffered timing registers, `LDOK`.
-    fn write_timing(&self, f: FlexPwmFn, t: StepTiming) {
+    /// `CLDOK`, then the buffered timing registers (`PRSC`, `VAL1`, the
+    /// output's two compares); `LDOK` is left to the caller.
+    fn write_buffers(&self, f: FlexPwmFn, t: StepTiming) {
         let rb = self.block(f.module);
         let bit = 1u16 << (f.submodule & 3);
         let sm = &rb.SM[(f.submodule & 3) as usize];
+        let c = compares(&t);
         // A load still pending (period longer than the update interval)
         // is replaced by this one: the buffers are writable only once its
         // LDOK is cleared. Between the CLDOK and the LDOK a period
-        // boundary loads nothing, so PRSC/VAL1/VAL3|5 load together.
+        // boundary loads nothing, so PRSC/VAL1/compares load together.
         clear_ldok(rb, bit);
         ral::modify_reg!(ral::pwm::sm, sm, SMCTRL, PRSC: t.prescaler_log2 as u16 & 7);
-        ral::write_reg!(ral::pwm::sm, sm, SMVAL1, t.period.saturating_sub(1));
+        ral::write_reg!(ral::pwm::sm, sm, SMVAL1, c.val1);
         match f.output {
-            PwmOutput::A => ral::write_reg!(ral::pwm::sm, sm, SMVAL3, t.pulse),
-            PwmOutput::B => ral::write_reg!(ral::pwm::sm, sm, SMVAL5, t.pulse),
+            PwmOutput::A => {
+                ral::write_reg!(ral::pwm::sm, sm, SMVAL2, c.on);
+                ral::write_reg!(ral::pwm::sm, sm, SMVAL3, c.off);
+            }
+            PwmOutput::B => {
+                ral::write_reg!(ral::pwm::sm, sm, SMVAL4, c.on);
+                ral::write_reg!(ral::pwm::sm, sm, SMVAL5, c.off);
+            }
         }
-        set_ldok(rb, bit);
+    }
+
+    /// Retime a running output: buffers, `LDOK` (loads at the next reload).
+    fn write_timing(&self, f: FlexPwmFn, t: StepTiming) {
+        self.write_buffers(f, t);
+        set_ldok(self.block(f.module), 1u16 << (f.submodule & 3));
     }
 
     fn restart(&self, f: FlexPwmFn, t: StepTiming) {
@@ -211,11 +283,16 @@ impl StepOutputs {
         let bit = 1u16 << (f.submodule & 3);
         let sm = &rb.SM[(f.submodule & 3) as usize];
         ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !MCTRL_LDOK & !(bit << 8)); // RUN = 0
-        self.write_timing(f, t); // CLDOK, values, LDOK
+        self.write_buffers(f, t); // CLDOK, values
+                                  // Load now (LDMOD = 1: on LDOK), not at the next VAL1 match.
+        ral::modify_reg!(ral::pwm::sm, sm, SMCTRL, LDMOD: 1);
+        set_ldok(rb, bit);
+        ral::modify_reg!(ral::pwm::sm, sm, SMCTRL, LDMOD: 0);
+        clear_ldok(rb, bit); // nothing pending (the load has cleared it)
         ral::modify_reg!(ral::pwm::sm, sm, SMCTRL2, FORCE: 1); // counter := INIT
         self.mask(f, false);
         ral::modify_reg!(ral::pwm, rb, MCTRL, |v| (v & !MCTRL_LDOK) | (bit << 8));
-        // RUN = 1: loads
+        // RUN = 1
     }
 
     /// Apply one tick's commands (J1..J6). All DIR writes happen first, then
@@ -224,7 +301,7 @@ impl StepOutputs {
         let mut plans = [UpdatePlan::Idle; 6];
         let mut dir_written_at: Option<u32> = None;
         for ((a, p), &c) in self.axes.iter_mut().zip(plans.iter_mut()).zip(cmds.iter()) {
-            let (plan, next) = plan_update(a.out, c);
+            let (plan, next) = plan_update(a.out, c, &StepConfig::DEFAULT);
             *p = plan;
             a.out = next;
         }

@@ -39,31 +39,77 @@
 //! [`super::encoder::decode_window`] with a frame-sized [`FRAME_DECODE`]
 //! config (it range-checks duty, stuck high/low).
 //!
+//! # Oscillator tolerance and frames shorter than a tick
+//!
+//! The MT6816 data sheet gives no tolerance for its PWM clock (an on-chip
+//! RC oscillator; issue 11 defect 6: the decoder refused every reading
+//! when it ran more than 1.9 % fast). Accepted: **+-10 %** of nominal
+//! ([`MIN_PERIOD_CYCLES`], [`MAX_PERIOD_CYCLES`]), the usual spread of
+//! untrimmed on-chip RC oscillators over temperature and supply (trimmed
+//! ones stay within a few %); outside it the reading is refused rather
+//! than decoded with a wrong frame length.
+//!
+//! A period shorter than the 1 ms tick (the fast side) puts **two** rising
+//! edges into some tick windows (a fraction `T/p - 1`, 11 % at -10 %),
+//! and whether the second capture overwrites `CAPT` or is inhibited while
+//! `IEF` is set is not documented. The decoder therefore never uses such a
+//! window: once the period is measured and shorter than a tick plus a
+//! margin ([`FrameDecoder::fast`]), it predicts the rising edges from the
+//! measured period and the last timestamped edge, and uses a `CAPT`
+//! difference only when every window since the previous capture held
+//! exactly the edges `IEF` reported (0 or 1) with no edge within
+//! [`EDGE_MARGIN_CYCLES`] of a window boundary. Other windows break the
+//! chain; the reading then repeats the last frame (never two ticks in a row
+//! at +-10 %, within [`MAX_FRAME_AGE`]). The period is measured without
+//! counting edges: `frames = round(span / period estimate)`, first over at
+//! most [`FIRST_SPAN_FRAMES`] frames (unambiguous at +-10 %), then over up
+//! to [`PERIOD_ANCHOR_FRAMES`].
+//!
+//! # Repeated counts
+//!
+//! A tick without a new complete frame repeats the last frame's count (a
+//! frame of ~1.03 ms is longer than a tick, so about 3 % of ticks do).
+//! [`FrameDecoder::repeated`] flags such a reading and
+//! [`FrameDecoder::repeats`] counts them.
+//!
 //! # Assumptions (bench-confirm; see the firmware README)
 //!
 //! * Capture works in gated-count mode on the secondary (gate) input and
-//!   sets `IEF`; whether further captures overwrite `CAPT` while `IEF` is set
-//!   or are inhibited does not matter here as long as at most one rising edge
-//!   falls between two snapshots, which [`FrameDecoder`] enforces by refusing
-//!   periods shorter than [`MIN_PERIOD_CYCLES`] (1 ms + 1 %). The MT6816
-//!   oscillator must therefore be within -1.9 % / +10 % of nominal.
-//! * `SCTRL[INPUT]` reflects the pin level (after `IPS`, which is 0).
+//!   sets `IEF`.
+//! * `SCTRL[INPUT]` reflects the pin level (after `IPS`, which is 0, and the
+//!   input filter, which delays both edges alike).
 
 use super::clock::CYCLES_PER_QTIMER_TICK;
 use super::encoder::{decode_window, DecodeConfig, EncoderReading, LossReason, FRAME_CLOCKS};
 
 /// Nominal frame period in CPU cycles (4119 * 250 ns at 600 MHz).
 pub const NOMINAL_PERIOD_CYCLES: u32 = FRAME_CLOCKS * 150;
-/// Shortest accepted period: above one control tick (600 000 cycles) plus
-/// 1 %, so at most one rising edge can fall between two snapshots.
-pub const MIN_PERIOD_CYCLES: u32 = 606_000;
+/// Shortest accepted period: nominal - 10 % (see the module docs).
+pub const MIN_PERIOD_CYCLES: u32 = NOMINAL_PERIOD_CYCLES - NOMINAL_PERIOD_CYCLES / 10;
 /// Longest accepted period (nominal + 10 %).
 pub const MAX_PERIOD_CYCLES: u32 = NOMINAL_PERIOD_CYCLES + NOMINAL_PERIOD_CYCLES / 10;
 /// Snapshots without a new frame after which the reading is lost (a frame
-/// starts in all but ~3 % of 1 ms ticks, never two ticks in a row).
+/// starts in all but ~3 % of 1 ms ticks, never two ticks in a row; at the
+/// fast limit a two-edge window costs two ticks).
 pub const MAX_FRAME_AGE: u8 = 3;
 /// Re-anchor the period measurement after this many frames.
 pub const PERIOD_ANCHOR_FRAMES: u32 = 64;
+/// The first period measurement spans at most this many frames: with the
+/// nominal period as the estimate and +-10 % error, `round(span / p)` is
+/// exact up to 4 frames (error 0.4 frame).
+pub const FIRST_SPAN_FRAMES: u32 = 4;
+/// The control tick, CPU cycles.
+pub const TICK_CYCLES: u32 = 600_000;
+/// Before the period is measured, this many consecutive windows with an
+/// edge each make the decoder assume frames shorter than a tick (and wait
+/// for the measurement): at the nominal period one window in ~35 has no
+/// edge; 128 covers periods down to 0.8 % above a tick.
+pub const QUIET_WINDOWS: u16 = 128;
+/// A predicted rising edge this close to a snapshot makes that window
+/// ambiguous (prediction error: 32-cycle timestamp quantisation, the
+/// snapshot's read skew, the period error times the frames since the last
+/// timestamp; all well under 1 000 cycles = 1.7 us).
+pub const EDGE_MARGIN_CYCLES: u32 = 1_000;
 
 /// Decoder limits for a window of exactly one frame.
 pub const FRAME_DECODE: DecodeConfig = DecodeConfig {
@@ -108,12 +154,24 @@ enum NoFrame {
 pub struct FrameDecoder {
     /// `CAPT` at the last rising edge seen, if the chain is unbroken.
     last_capt: Option<u16>,
-    /// Rising edges seen since start (chain index).
+    /// Rising edges seen (one per capture; exact while the period is longer
+    /// than a tick).
     edges: u32,
-    /// Edge timestamp anchor: (edge index, CPU cycles).
+    /// Period measurement anchor: a timestamped edge (edge index, CPU cycles).
     anchor: Option<(u32, u32)>,
-    /// Index of the edge last timestamped (to timestamp each edge once).
-    stamped: Option<u32>,
+    /// A window without a rising edge was seen since the anchor: the period
+    /// is longer than a tick, so no window held two edges and the edge
+    /// index is exact.
+    quiet_since_anchor: bool,
+    /// Consistent windows since the last one without an edge (saturating).
+    since_quiet: u16,
+    /// The most recent timestamped edge (CPU cycles): the phase of the
+    /// edge prediction.
+    phase: Option<u32>,
+    /// `CAPT` of the edge last timestamped (to timestamp each edge once).
+    stamped: Option<u16>,
+    /// Time of the previous snapshot.
+    last_t: Option<u32>,
     /// Frame period estimate, CPU cycles.
     period: u32,
     /// Whether `period` was measured (vs nominal).
@@ -122,6 +180,8 @@ pub struct FrameDecoder {
     high: Option<u16>,
     /// Snapshots since `high` was updated.
     age: u8,
+    /// Readings that repeated the previous tick's frame.
+    repeats: u32,
     state: NoFrame,
 }
 
@@ -138,13 +198,62 @@ impl FrameDecoder {
             last_capt: None,
             edges: 0,
             anchor: None,
+            quiet_since_anchor: false,
+            since_quiet: 0,
+            phase: None,
             stamped: None,
+            last_t: None,
             period: NOMINAL_PERIOD_CYCLES,
             measured: false,
             high: None,
             age: 0,
+            repeats: 0,
             state: NoFrame::Starting,
         }
+    }
+
+    /// The last reading repeated the frame of the tick before (no new
+    /// complete frame this tick).
+    pub const fn repeated(&self) -> bool {
+        self.age > 0 && self.high.is_some()
+    }
+
+    /// Readings so far that repeated the previous tick's frame.
+    pub const fn repeats(&self) -> u32 {
+        self.repeats
+    }
+
+    /// The measured period is short enough for two rising edges to fall
+    /// into one tick window (within the prediction margin).
+    pub const fn fast(&self) -> bool {
+        self.measured && self.period < TICK_CYCLES + 2 * EDGE_MARGIN_CYCLES
+    }
+
+    /// Predicted rising edges in the window `(t0, t1]`, or `None` if no
+    /// prediction is possible (period not measured, no phase, a predicted
+    /// edge within [`EDGE_MARGIN_CYCLES`] of `t0` or `t1`, or a phase too
+    /// old).
+    fn predicted_edges(&self, t0: u32, t1: u32) -> Option<u32> {
+        let ph = self.phase?;
+        if !self.measured || self.period == 0 {
+            return None;
+        }
+        let p = self.period as i64;
+        let rel = |t: u32| t.wrapping_sub(ph) as i32 as i64;
+        let (d0, d1) = (rel(t0), rel(t1));
+        // a phase more than ~2 000 frames old: prediction error too large
+        if d0.abs() > 2_000 * p || d1.abs() > 2_000 * p || d1 < d0 {
+            return None;
+        }
+        let m = EDGE_MARGIN_CYCLES as i64;
+        let clear = |d: i64| {
+            let r = d.rem_euclid(p);
+            r >= m && r <= p - m
+        };
+        if !clear(d0) || !clear(d1) {
+            return None;
+        }
+        Some((d1.div_euclid(p) - d0.div_euclid(p)) as u32)
     }
 
     /// Current period estimate (CPU cycles) and whether it was measured.
@@ -154,66 +263,133 @@ impl FrameDecoder {
 
     fn break_chain(&mut self) {
         self.last_capt = None;
-        self.anchor = None;
-        self.stamped = None;
     }
 
+    /// Rising edge number `edge` at CPU time `t` (timestamped while the pin
+    /// was still high since it): update the phase and measure the period.
+    ///
+    /// Two frame counts for the span since the anchor: the edge index
+    /// difference (exact while no tick window holds two edges) and
+    /// `round(span / period estimate)`. The index counts if a tick window
+    /// without an edge was seen in the span (impossible when frames are
+    /// shorter than a tick, the only case in which a window can hold two
+    /// edges); otherwise only the ratio counts, over at most
+    /// [`FIRST_SPAN_FRAMES`] frames until the period is measured, and
+    /// within 0.2 frame of a whole number.
     fn timestamp(&mut self, edge: u32, t: u32) {
-        if self.stamped == Some(edge) {
+        self.phase = Some(t);
+        let quiet = core::mem::take(&mut self.quiet_since_anchor);
+        let Some((n0, t0)) = self.anchor else {
+            self.anchor = Some((edge, t));
+            return;
+        };
+        let span = t.wrapping_sub(t0) as u64;
+        let by_index = edge.wrapping_sub(n0) as u64;
+        if quiet && by_index > 0 {
+            let est = (span + by_index / 2) / by_index;
+            if (TICK_CYCLES as u64..=MAX_PERIOD_CYCLES as u64).contains(&est) {
+                self.period = est as u32;
+                self.measured = true;
+                if by_index >= PERIOD_ANCHOR_FRAMES as u64 {
+                    self.anchor = Some((edge, t));
+                } else {
+                    self.quiet_since_anchor = true;
+                }
+                return;
+            }
+        }
+        let p = self.period as u64;
+        let frames = (span + p / 2) / p;
+        let max_frames = if self.measured { 2 * PERIOD_ANCHOR_FRAMES as u64 } else { FIRST_SPAN_FRAMES as u64 };
+        // |span / p - frames| in thousandths of a frame
+        let off = (span * 1000).abs_diff(frames * p * 1000) / p;
+        if frames == 0 || frames > max_frames || off > 200 {
+            // too far for an unambiguous frame count, or inconsistent
+            // (a glitch, a missed edge): start again from this edge
+            self.anchor = Some((edge, t));
             return;
         }
-        self.stamped = Some(edge);
-        match self.anchor {
-            Some((n0, t0)) if edge > n0 => {
-                let frames = edge - n0;
-                let span = t.wrapping_sub(t0);
-                let p = span / frames;
-                // Shorter than MIN is recorded too (update() then refuses
-                // every reading); implausibly short/long spans re-anchor.
-                if (NOMINAL_PERIOD_CYCLES / 2..=MAX_PERIOD_CYCLES).contains(&p) {
-                    // round to nearest
-                    self.period = ((span as u64 + frames as u64 / 2) / frames as u64) as u32;
-                    self.measured = true;
-                    if frames >= PERIOD_ANCHOR_FRAMES {
-                        self.anchor = Some((edge, t));
-                    }
-                } else {
-                    // inconsistent (missed edge or glitch): start again
-                    self.anchor = Some((edge, t));
-                }
+        let est = ((span + frames / 2) / frames) as u32;
+        if (NOMINAL_PERIOD_CYCLES / 2..=MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2).contains(&est) {
+            self.period = est;
+            self.measured = true;
+            if frames >= PERIOD_ANCHOR_FRAMES as u64 {
+                self.anchor = Some((edge, t));
+            } else {
+                self.quiet_since_anchor = quiet;
             }
-            _ => self.anchor = Some((edge, t)),
+        } else {
+            self.anchor = Some((edge, t));
         }
     }
 
     /// Process one snapshot; returns the reading for this tick (the count of
     /// the most recent complete frame, or why there is none).
     pub fn update(&mut self, s: Snapshot) -> EncoderReading {
+        let prev_t = self.last_t.replace(s.cycles);
+        let mut fresh = false;
+        // Does this window hold exactly the edges IEF reports (0 or 1)? Only
+        // in doubt when the period may put two edges into one window.
+        if s.consistent {
+            self.since_quiet = if s.ief { self.since_quiet.saturating_add(1) } else { 0 };
+        }
+        let clean = if self.fast() {
+            match prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) {
+                Some(n) => n == u32::from(s.ief),
+                None => false,
+            }
+        } else {
+            // Period not measured (or longer than a tick): every window
+            // holds at most one edge unless frames are shorter than a tick,
+            // which shows as no window without an edge for a long time
+            // (at the nominal period one in ~35 has none).
+            self.measured || self.since_quiet <= QUIET_WINDOWS
+        };
         if !s.consistent {
-            // An edge happened during the snapshot: we cannot tell whether
-            // CAPT belongs to it. Break the chain; keep the last frame.
+            // an edge may have been missed by the index: re-anchor
+            self.anchor = None;
+            self.quiet_since_anchor = false;
+        } else if !s.ief && self.anchor.is_some() {
+            self.quiet_since_anchor = true;
+        }
+        if !s.consistent || !clean {
+            // An edge during the snapshot (CAPT may or may not belong to
+            // it), or a window with two edges / an edge at its boundary:
+            // the next CAPT difference would not be one frame. Break the
+            // chain; keep the last frame.
             self.break_chain();
+            if s.consistent && s.ief {
+                // restart the chain at this capture only if it is this
+                // window's single edge (otherwise wait for the next one)
+                let single = prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) == Some(1);
+                if single {
+                    self.last_capt = Some(s.capt);
+                }
+                self.edges = self.edges.wrapping_add(1);
+            }
         } else if s.ief {
             if let Some(prev) = self.last_capt {
                 self.high = Some(s.capt.wrapping_sub(prev));
                 self.age = 0;
+                fresh = true;
             }
             self.last_capt = Some(s.capt);
             self.edges = self.edges.wrapping_add(1);
-            if self.edges == 0 {
-                // after 49 days: restart the period chain cleanly
-                self.break_chain();
-            }
         }
-        if s.consistent && s.input_high && self.last_capt.is_some() {
-            // Still high since the last captured rising edge: its time.
+        if s.consistent && clean && s.input_high && self.last_capt == Some(s.capt) {
+            // Still high since the last captured rising edge (one edge in
+            // this window, or none since): `CNTR - CAPT` is its age.
             let since = s.cntr.wrapping_sub(s.capt) as u32 * CYCLES_PER_QTIMER_TICK;
-            if since < MIN_PERIOD_CYCLES {
+            if since < self.period.min(MIN_PERIOD_CYCLES) && self.stamped != Some(s.capt) {
+                self.stamped = Some(s.capt);
                 self.timestamp(self.edges, s.cycles.wrapping_sub(since));
             }
         }
-        if !s.ief {
+        if !fresh {
             self.age = self.age.saturating_add(1);
+        }
+        if self.repeated() {
+            self.repeats = self.repeats.saturating_add(1);
         }
         if self.period < MIN_PERIOD_CYCLES {
             return EncoderReading::Lost(LossReason::WindowTooShort);
@@ -436,10 +612,106 @@ mod tests {
     }
 
     #[test]
-    fn period_shorter_than_a_tick_is_refused() {
-        let period = 590_000.0;
+    fn period_beyond_ten_percent_fast_is_refused() {
+        // 12 % fast: outside the accepted +-10 %
+        let period = NOMINAL_PERIOD_CYCLES as f64 * 0.88;
         let sim = Sim { period, phase: 0.0, count_at: Box::new(|_| 1000), stuck: None };
-        let r = run(&sim, 300);
-        assert!(r[100..].iter().all(|x| x.count().is_none()), "{:?}", &r[100..110]);
+        let r = run(&sim, 400);
+        assert!(r[200..].iter().all(|x| x.count().is_none()), "{:?}", &r[200..210]);
+    }
+
+    /// Issue 11 defect 6: an MT6816 running up to 10 % fast (frames shorter
+    /// than the 1 ms tick, two rising edges in some tick windows) is decoded
+    /// exactly once its period is measured; windows with two edges are
+    /// skipped, never decoded. Before: every reading refused below 606 000
+    /// cycles (1.9 % fast).
+    #[test]
+    fn up_to_ten_percent_fast_is_decoded_exactly() {
+        for pct in [2.0, 5.0, 9.5] {
+            for count in [0u16, 7, 1000, 2048, 4000, MAX_COUNT] {
+                let period = NOMINAL_PERIOD_CYCLES as f64 * (1.0 - pct / 100.0);
+                for phase in [0.0, 250_000.0] {
+                    let sim = Sim { period, phase, count_at: Box::new(move |_| count), stuck: None };
+                    let mut d = FrameDecoder::new();
+                    let mut prev = 0.0;
+                    let mut got = Vec::new();
+                    for i in 1..=3000 {
+                        let t = i as f64 * 600_000.0 + 1234.0;
+                        got.push(d.update(sim.snapshot(prev, t)));
+                        prev = t;
+                    }
+                    let tail = &got[2000..];
+                    // +-1: before the period is measured (tiny duty: rare
+                    // timestamps) the nominal period is off by `pct`
+                    let wrong =
+                        tail.iter().filter(|r| r.count().is_some_and(|c| circular_distance(c, count) > 1)).count();
+                    let none = tail.iter().filter(|r| r.count().is_none()).count();
+                    assert_eq!(wrong, 0, "{pct}% fast, count {count}, phase {phase}: {:?}", &tail[..20]);
+                    if count >= 1000 {
+                        assert_eq!(none, 0, "{pct}% fast, count {count}: {none} ticks without a reading");
+                    }
+                    if count >= 1000 {
+                        let (p, measured) = d.period();
+                        assert!(measured && (p as f64 - period).abs() < 50.0, "{pct}%: period {p} vs {period}");
+                        // frames shorter than a tick (+ margin) from 0.33 % fast
+                        assert_eq!(d.fast(), period < 602_000.0, "{pct}%");
+                    }
+                }
+            }
+        }
+    }
+
+    /// A moving encoder 5 % fast: every reading is the count of one of the
+    /// last frames (the previous complete frame, aged by at most
+    /// `MAX_FRAME_AGE` ticks, plus the frame two-edge windows skip), never a
+    /// mix of two frames.
+    #[test]
+    fn fast_oscillator_while_moving() {
+        let period = NOMINAL_PERIOD_CYCLES as f64 * 0.95;
+        let sim = Sim { period, phase: 1000.0, count_at: Box::new(|k| ((k * 13) % 4096) as u16), stuck: None };
+        let mut d = FrameDecoder::new();
+        let mut prev = 0.0;
+        for i in 1..=3000u64 {
+            let t = i as f64 * 600_000.0 + 1234.0;
+            let r = d.update(sim.snapshot(prev, t));
+            prev = t;
+            if i > 2000 {
+                let c = r.count().expect("reading");
+                // a recent frame's count: frames advance 13 counts each
+                let (k, _) = sim.frame_of(t);
+                let near = (1..=5).any(|back| ((k.saturating_sub(back) * 13) % 4096) as u16 == c);
+                assert!(
+                    near,
+                    "tick {i}: {c} not one of the last frames' counts (frame {k}: {}), period {:?}",
+                    (k * 13) % 4096,
+                    d.period()
+                );
+            }
+        }
+    }
+
+    /// Repeated readings (no new frame this tick) are flagged and counted:
+    /// at nominal period about 2.9 % of ticks.
+    #[test]
+    fn repeated_counts_are_flagged() {
+        let sim = Sim { period: NOMINAL_PERIOD_CYCLES as f64, phase: 0.0, count_at: Box::new(|_| 1000), stuck: None };
+        let mut d = FrameDecoder::new();
+        let mut prev = 0.0;
+        let mut flagged = 0;
+        for i in 1..=10_000 {
+            let t = i as f64 * 600_000.0 + 1234.0;
+            let (k0, _) = sim.frame_of(prev);
+            let (k1, _) = sim.frame_of(t);
+            let r = d.update(sim.snapshot(prev, t));
+            prev = t;
+            if i > 100 {
+                assert_eq!(r.count(), Some(1000));
+                assert_eq!(d.repeated(), k0 == k1, "tick {i}");
+                flagged += u32::from(d.repeated());
+            }
+        }
+        // 1 - 600 000 / 617 850 = 2.9 %
+        assert!((280..=300).contains(&flagged), "{flagged} repeats in 9 900 ticks");
+        assert!(d.repeats() >= flagged);
     }
 }

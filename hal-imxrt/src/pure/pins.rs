@@ -1,41 +1,49 @@
 //! Teensy 4.1 pin database and the PAROL6 pin map, checked at compile time.
 //!
-//! # Default map and the rewiring it needs
+//! # Default map: the original wiring
 //!
-//! | axis | STEP (C++) | STEP (here) | timer (here)       | DIR | encoder | TMR ch  | limit |
-//! |------|-----------:|------------:|--------------------|----:|--------:|---------|------:|
-//! | J1   | 2          | 2           | FlexPWM4 sm2 A     | 30  | 10      | TMR1 ch0 | 20 |
-//! | J2   | 5          | 5           | FlexPWM2 sm1 A     | 31  | 11      | TMR1 ch2 | 21 |
-//! | J3   | 6          | 6           | FlexPWM2 sm2 A     | 32  | 12      | TMR1 ch1 | 22 |
-//! | J4   | 8          | 8           | FlexPWM1 sm3 A     | 33  | 14      | TMR3 ch2 | 23 |
-//! | J5   | 4          | 4           | FlexPWM2 sm0 A     | 35  | 15      | TMR3 ch3 | 24 |
-//! | J6   | **7**      | **36**      | FlexPWM2 sm3 A     | 34  | 19      | TMR3 ch0 | 25 |
+//! | axis | STEP | timer                                   | DIR | encoder | TMR ch  | limit |
+//! |------|-----:|-----------------------------------------|----:|--------:|---------|------:|
+//! | J1   | 2    | FlexPWM4 sm2 A                          | 30  | 10      | TMR1 ch0 | 20 |
+//! | J2   | 5    | FlexPWM2 sm1 A                          | 31  | 11      | TMR1 ch2 | 21 |
+//! | J3   | 6    | FlexPWM2 sm2 A                          | 32  | 12      | TMR1 ch1 | 22 |
+//! | J4   | 8    | FlexPWM1 sm3 A                          | 33  | 14      | TMR3 ch2 | 23 |
+//! | J5   | 4    | FlexPWM2 sm0 A                          | 35  | 15      | TMR3 ch3 | 24 |
+//! | J6   | 7    | FlexPWM2 sm3 A via `PWM_OUT_TRIG0` -> XBARA1 -> `XBAR1_INOUT15` | 34  | 19      | TMR3 ch0 | 25 |
 //!
-//! The C++ wiring put J4 on pin 8 (FlexPWM1 sm3 A) and J6 on pin 7
-//! (FlexPWM1 sm3 **B**): one submodule, one counter, one period, so J4 and J6
-//! could never step at different rates. The fix moves **only the J6 STEP wire,
-//! from pin 7 to pin 36** (GPIO_B1_02, FlexPWM2 sm3 A, ALT6), the free
-//! submodule closest to the DIR pins 30..35. Every other wire stays. (Pin 29,
-//! FlexPWM3 sm1 A, would also work.) Pin 7 is left unused.
+//! The C++ wiring put J4 on pin 8 (FlexPWM1 sm3 A) and J6 on pin 7, whose
+//! own FlexPWM function is FlexPWM1 sm3 **B**: one submodule, one counter,
+//! so J4 and J6 could never step at different rates. Pin 7 (GPIO_B1_01) has
+//! another route (issue 11 defect 8): its ALT1 is `XBAR1_INOUT15`, and a
+//! free submodule's trigger output can reach it through XBARA1. J6 uses
+//! FlexPWM2 submodule 3 (free in this map) with `TCTRL[PWAOT0] = 1` (its
+//! PWM_A waveform drives `PWM_OUT_TRIG0`), XBARA1 input 47
+//! (`FLEXPWM2_PWM4_OUT_TRIG0_1`, NXP SDK `fsl_xbara` input table for the
+//! RT1062) selected for output 15 (`SEL7[SEL15]`), `IOMUXC_GPR6` bit 27
+//! (`IOMUXC_XBAR_DIR_SEL_15` = output) and the XBAR1 clock gate (CCGR2
+//! CG11). The period math is unchanged (same submodule as the old pin 36
+//! fix). So **no rewiring** is needed. The cargo feature `j6-pin36` of the
+//! firmware selects [`J6_PIN36_PIN_MAP`] instead (J6 STEP moved to pin 36,
+//! GPIO_B1_02, FlexPWM2 sm3 A on the pad directly, ALT6), the wiring of
+//! earlier firmware.
 //!
 //! Every pin of the map is checked by [`check`] in a `const` context
 //! ([`DEFAULT_PIN_MAP`] is built with [`PinMap::validated`]), so a map that
 //! shares a FlexPWM submodule or a QuadTimer channel, or uses a pin twice
-//! (including the Serial1 pins 0/1), does not compile:
+//! (including the Serial1 pins 0/1), does not compile. Pin 7 (XBAR route)
+//! and pin 36 are both FlexPWM2 sm3:
 //!
 //! ```compile_fail
 //! use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
-//! // The C++ STEP pins: 7 and 8 share FlexPWM1 submodule 3.
-//! const CPP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 7], ..DEFAULT_PIN_MAP }.validated();
+//! const BAD: PinMap = PinMap { step: [2, 5, 6, 8, 36, 7], ..DEFAULT_PIN_MAP }.validated();
 //! ```
 //!
-//! The same construction with the fixed pins compiles (control for the test
-//! above, so it cannot pass for an unrelated reason):
+//! The original wiring compiles (control for the test above):
 //!
 //! ```
 //! use hal_imxrt::pure::pins::{PinMap, DEFAULT_PIN_MAP};
-//! const FIXED: PinMap = PinMap { step: [2, 5, 6, 8, 4, 36], ..DEFAULT_PIN_MAP }.validated();
-//! assert_eq!(FIXED, DEFAULT_PIN_MAP);
+//! const CPP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 7], ..DEFAULT_PIN_MAP }.validated();
+//! assert_eq!(CPP, DEFAULT_PIN_MAP);
 //! ```
 //!
 //! The encoder map without pin 19 (the C++ omission) cannot be expressed (the
@@ -51,10 +59,10 @@
 //! Pad, GPIO bit, FlexPWM/QuadTimer function and ALT values come from the
 //! Teensy 4.1 core (`pwm.c` / FreqMeasureMulti tables: "FlexPWM2_3_A 36
 //! B1_02 ALT6", ...), teensy4-rs `teensy4-pins` (pin -> pad) and imxrt-iomuxc
-//! (ALT values of FlexPWM pads, LPUART6 daisy). The QuadTimer3 input
-//! select-input (daisy) values are from several independent Teensy sketches
-//! (TIMER0/2/3 = 1, TIMER1 = 0) and **were not checked against the reference
-//! manual: bench-confirm** that pins 14, 15, 19 count.
+//! (ALT values of FlexPWM pads, LPUART6 daisy); issue 11 checked them and
+//! the QuadTimer3 select inputs against the reference material. The XBAR
+//! route: `GPIO_B1_01` ALT1 = `XBAR1_INOUT15` and the GPR6 bit from the NXP
+//! SDK pin/GPR headers; the input number from its XBARA1 input table.
 
 /// i.MXRT1062 pads reachable from Teensy 4.1 pins 0..=37.
 #[allow(non_camel_case_types, missing_docs)]
@@ -121,6 +129,27 @@ pub enum PwmOutput {
     B,
 }
 
+/// How a FlexPWM output reaches its pad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PwmRoute {
+    /// The pad's ALT is the PWM output itself (`MASK`/`OUTEN` act on it).
+    Pad,
+    /// The submodule's PWM_A drives `PWM_OUT_TRIG0` (`TCTRL[PWAOT0]`),
+    /// XBARA1 routes input `input` to output `inout` = `XBAR1_INOUT<inout>`,
+    /// the pad's ALT selects that XBAR pin (`IOMUXC_GPR6` direction bit =
+    /// output). `MASK`/`OUTEN` may not act on the trigger path: the output
+    /// is stopped by selecting XBARA1 input 0 (`LOGIC_LOW`) instead.
+    Xbar {
+        /// XBARA1 output = IOMUX XBAR_INOUT number (4..=19).
+        inout: u8,
+        /// XBARA1 input of the submodule's `PWM_OUT_TRIG0_1`.
+        input: u8,
+    },
+}
+
+/// XBARA1 input 0: `LOGIC_LOW`.
+pub const XBAR_LOGIC_LOW: u8 = 0;
+
 /// A FlexPWM function of a pad.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FlexPwmFn {
@@ -132,6 +161,8 @@ pub struct FlexPwmFn {
     pub output: PwmOutput,
     /// IOMUXC ALT.
     pub alt: u8,
+    /// How the output reaches the pad.
+    pub route: PwmRoute,
 }
 
 /// A QuadTimer input function of a pad.
@@ -167,8 +198,35 @@ const fn g(port: u8, bit: u8) -> GpioBit {
     GpioBit { port, bit }
 }
 const fn pwm(module: u8, submodule: u8, output: PwmOutput, alt: u8) -> Option<FlexPwmFn> {
-    Some(FlexPwmFn { module, submodule, output, alt })
+    Some(FlexPwmFn { module, submodule, output, alt, route: PwmRoute::Pad })
 }
+
+/// XBARA1 input of FlexPWM`module` submodule `submodule`'s
+/// `PWM_OUT_TRIG0_1` (FlexPWM1..3: inputs 40..=51, four per module; NXP SDK
+/// `fsl_xbara` input table of the RT1062; FlexPWM4 not listed here).
+pub const fn xbar_trig_input(module: u8, submodule: u8) -> Option<u8> {
+    if module >= 1 && module <= 3 && submodule <= 3 {
+        Some(40 + 4 * (module - 1) + submodule)
+    } else {
+        None
+    }
+}
+
+/// Pin 7's STEP route: FlexPWM2 sm3 A via `PWM_OUT_TRIG0`, XBARA1 input 47
+/// -> output 15 = `XBAR1_INOUT15` = GPIO_B1_01 ALT1.
+pub const PIN7_XBAR_STEP: FlexPwmFn = FlexPwmFn {
+    module: 2,
+    submodule: 3,
+    output: PwmOutput::A,
+    alt: 1,
+    route: PwmRoute::Xbar {
+        inout: 15,
+        input: match xbar_trig_input(2, 3) {
+            Some(i) => i,
+            None => 0,
+        },
+    },
+};
 const fn qt(module: u8, channel: u8, daisy: Option<u8>) -> Option<QtimerFn> {
     Some(QtimerFn { module, channel, alt: 1, daisy })
 }
@@ -331,8 +389,13 @@ pub const fn check(map: &PinMap) -> Result<(), PinMapError> {
     Ok(())
 }
 
-/// FlexPWM function of a pin, if any.
+/// STEP function of a pin, if any: the pad's own FlexPWM output, except
+/// pin 7, which uses the XBAR route [`PIN7_XBAR_STEP`] (its own function,
+/// FlexPWM1 sm3 B, shares the submodule of pin 8).
 pub const fn step_fn(pin: u8) -> Option<FlexPwmFn> {
+    if pin == 7 {
+        return Some(PIN7_XBAR_STEP);
+    }
     match teensy41_pin(pin) {
         Some(p) => p.pwm,
         None => None,
@@ -368,14 +431,18 @@ impl PinMap {
     }
 }
 
-/// The PAROL6 pin map of this firmware (see module docs for the rewiring).
+/// The PAROL6 pin map of this firmware: the original wiring (J6 STEP on
+/// pin 7 through XBARA1, see module docs).
 pub const DEFAULT_PIN_MAP: PinMap = PinMap {
-    step: [2, 5, 6, 8, 4, 36],
+    step: [2, 5, 6, 8, 4, 7],
     dir: [30, 31, 32, 33, 35, 34],
     encoder: [10, 11, 12, 14, 15, 19],
     limit: [20, 21, 22, 23, 24, 25],
 }
 .validated();
+
+/// The map with J6 STEP rewired to pin 36 (firmware feature `j6-pin36`).
+pub const J6_PIN36_PIN_MAP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 36], ..DEFAULT_PIN_MAP }.validated();
 
 const _: () = assert!(check(&DEFAULT_PIN_MAP).is_ok());
 
@@ -385,7 +452,7 @@ mod tests {
 
     #[test]
     fn default_step_pins() {
-        let want = [(2, 4, 2), (5, 2, 1), (6, 2, 2), (8, 1, 3), (4, 2, 0), (36, 2, 3)];
+        let want = [(2, 4, 2), (5, 2, 1), (6, 2, 2), (8, 1, 3), (4, 2, 0), (7, 2, 3)];
         for (i, (pin, module, sm)) in want.into_iter().enumerate() {
             assert_eq!(DEFAULT_PIN_MAP.step[i], pin);
             let f = step_fn(pin).unwrap();
@@ -397,6 +464,22 @@ mod tests {
         assert_eq!(step_fn(8).unwrap().alt, 6);
         assert_eq!(step_fn(36).unwrap().alt, 6);
         assert_eq!(teensy41_pin(36).unwrap().pad, Pad::GPIO_B1_02);
+        assert_eq!(step_fn(36).unwrap().route, PwmRoute::Pad);
+    }
+
+    #[test]
+    fn pin7_xbar_route() {
+        let f = step_fn(7).unwrap();
+        assert_eq!(teensy41_pin(7).unwrap().pad, Pad::GPIO_B1_01);
+        assert_eq!((f.module, f.submodule, f.output, f.alt), (2, 3, PwmOutput::A, 1));
+        assert_eq!(f.route, PwmRoute::Xbar { inout: 15, input: 47 });
+        assert_eq!(xbar_trig_input(1, 0), Some(40));
+        assert_eq!(xbar_trig_input(3, 3), Some(51));
+        assert_eq!(xbar_trig_input(4, 0), None);
+        // the pin-36 map keeps the direct pad route on the same submodule
+        assert_eq!(J6_PIN36_PIN_MAP.step[5], 36);
+        let g = step_fn(36).unwrap();
+        assert_eq!((g.module, g.submodule), (f.module, f.submodule));
     }
 
     #[test]
@@ -427,9 +510,11 @@ mod tests {
     }
 
     #[test]
-    fn cpp_step_map_rejected() {
+    fn cpp_step_map_accepted_via_xbar_and_pin36_conflicts_with_it() {
         let cpp = PinMap { step: [2, 5, 6, 8, 4, 7], ..DEFAULT_PIN_MAP };
-        assert_eq!(check(&cpp), Err(PinMapError::StepSubmoduleShared(7)));
+        assert_eq!(check(&cpp), Ok(()));
+        let both = PinMap { step: [2, 5, 6, 8, 36, 7], ..DEFAULT_PIN_MAP };
+        assert_eq!(check(&both), Err(PinMapError::StepSubmoduleShared(7)));
     }
 
     #[test]
@@ -445,7 +530,7 @@ mod tests {
         let m = PinMap { encoder: [10, 11, 12, 14, 15, 99], ..DEFAULT_PIN_MAP };
         assert_eq!(check(&m), Err(PinMapError::UnknownPin(99)));
         // A and B of one submodule conflict too
-        let m = PinMap { step: [2, 3, 6, 8, 4, 36], ..DEFAULT_PIN_MAP };
+        let m = PinMap { step: [2, 3, 6, 8, 4, 7], ..DEFAULT_PIN_MAP };
         assert_eq!(check(&m), Err(PinMapError::StepSubmoduleShared(3)));
         // alternative fix with pin 29 is valid
         let m = PinMap { step: [2, 5, 6, 8, 4, 29], ..DEFAULT_PIN_MAP };

@@ -58,19 +58,25 @@ pub struct StepConfig {
     pub min_low_ns: u32,
     /// Rates with |rate| below this are `Stop`, milli-steps/s.
     pub min_rate_mhz: u32,
+    /// A stopped output starts only at |rate| >= this, milli-steps/s
+    /// (hysteresis above `min_rate_mhz`, see [`plan_update`]).
+    pub start_rate_mhz: u32,
     /// Rates with |rate| above this are refused, milli-steps/s.
     pub max_rate_mhz: u32,
 }
 
 impl StepConfig {
     /// 150 MHz timer, 1 us pulses, 1 us minimum low time, stop below
-    /// 20 steps/s (>= the 17.9 steps/s hardware minimum), refuse above
-    /// 200 ksteps/s. J3 needs 6 rad/s * 18431.6 = 110.6 ksteps/s.
+    /// 20 steps/s (>= the 17.9 steps/s hardware minimum), start again only
+    /// from 25 steps/s (a 5 steps/s hysteresis band: a rate dithering around
+    /// the stop threshold by less than that stops and starts at most once),
+    /// refuse above 200 ksteps/s. J3 needs 6 rad/s * 18431.6 = 110.6 ksteps/s.
     pub const DEFAULT: StepConfig = StepConfig {
         timer_hz: 150_000_000,
         pulse_ns: 1_000,
         min_low_ns: 1_000,
         min_rate_mhz: 20_000,
+        start_rate_mhz: 25_000,
         max_rate_mhz: 200_000_000,
     };
 
@@ -105,6 +111,17 @@ impl StepConfig {
             && self.min_rate_mhz >= self.hardware_min_rate_mhz()
             && self.max_rate_mhz <= self.hardware_max_rate_mhz()
             && self.min_rate_mhz < self.max_rate_mhz
+            && self.start_rate_mhz >= self.min_rate_mhz
+            && self.start_rate_mhz <= self.max_rate_mhz
+    }
+
+    /// Longest period (timer-clock counts times the prescaler divisor) a
+    /// stopped output may start with: the period of `start_rate_mhz`.
+    pub const fn start_max_ticks(&self) -> u64 {
+        if self.start_rate_mhz == 0 {
+            return u64::MAX;
+        }
+        self.timer_hz as u64 * 1000 / self.start_rate_mhz as u64
     }
 }
 
@@ -190,6 +207,34 @@ pub const fn achieved_rate_mhz(cmd: &StepCommand, cfg: &StepConfig) -> i64 {
     }
 }
 
+/// Compare values of one period: the counter runs `0..=val1` and the
+/// output is high from the `on` compare to the `off` compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Compares {
+    /// `VAL1` (period - 1).
+    pub val1: u16,
+    /// `VAL2` / `VAL4`: rising edge.
+    pub on: u16,
+    /// `VAL3` / `VAL5`: falling edge.
+    pub off: u16,
+}
+
+/// The pulse sits at the **end** of each period (issue 11 defect 4): high
+/// from count `period - 1 - pulse` to `period - 1`. A (re)started counter
+/// therefore gives its first rising edge one period (minus the pulse) after
+/// the start, never at once, and a Stop within the first period emits no
+/// pulse at all. Each period still holds exactly one pulse of `pulse`
+/// counts, and a retime loads `VAL1`/`on`/`off` together at a reload.
+pub const fn compares(t: &StepTiming) -> Compares {
+    let val1 = t.period.saturating_sub(1);
+    Compares { val1, on: val1.saturating_sub(t.pulse), off: val1 }
+}
+
+/// Timer-clock counts of one period (`period * 2^prescaler`).
+pub const fn period_ticks(t: &StepTiming) -> u64 {
+    (t.period as u64) << (t.prescaler_log2 & 7)
+}
+
 /// What an axis' step output is doing (as last programmed).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AxisOutput {
@@ -230,8 +275,17 @@ pub enum UpdatePlan {
 /// truncated: at most one step lost, which the encoder loop absorbs) and
 /// then restarts, so no STEP edge ever follows a DIR change by less than the
 /// settle time.
-pub const fn plan_update(state: AxisOutput, cmd: StepCommand) -> (UpdatePlan, AxisOutput) {
+///
+/// Stop/run hysteresis (issue 11 defect 4): [`step_command`] stops below
+/// `cfg.min_rate_mhz`; a **stopped** output starts only when the commanded
+/// period is at most [`StepConfig::start_max_ticks`] (|rate| >=
+/// `cfg.start_rate_mhz`), otherwise it stays stopped (`Idle`). A running
+/// output keeps running down to `min_rate_mhz`.
+pub const fn plan_update(state: AxisOutput, cmd: StepCommand, cfg: &StepConfig) -> (UpdatePlan, AxisOutput) {
     match cmd {
+        StepCommand::Run(t) if !state.running && period_ticks(&t) > cfg.start_max_ticks() => {
+            (UpdatePlan::Idle, AxisOutput { running: false, dir: state.dir })
+        }
         StepCommand::Stop => {
             let plan = if state.running { UpdatePlan::Halt } else { UpdatePlan::Idle };
             (plan, AxisOutput { running: false, dir: state.dir })
@@ -327,22 +381,77 @@ mod tests {
     fn update_planning() {
         let t = |dir| StepTiming { dir, prescaler_log2: 0, period: 1500, pulse: 150 };
         use Direction::*;
-        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Stop);
+        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Stop, &CFG);
         assert_eq!((p, s), (UpdatePlan::Idle, AxisOutput::INIT));
         // first start always writes DIR
-        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Run(t(Positive)));
+        let (p, s) = plan_update(AxisOutput::INIT, StepCommand::Run(t(Positive)), &CFG);
         assert_eq!(p, UpdatePlan::Restart { timing: t(Positive), dir_change: true });
         // same direction while running: glitch-free retime
-        let (p, s) = plan_update(s, StepCommand::Run(t(Positive)));
+        let (p, s) = plan_update(s, StepCommand::Run(t(Positive)), &CFG);
         assert_eq!(p, UpdatePlan::Retime(t(Positive)));
         // reversal while running: restart with DIR settle
-        let (p, s) = plan_update(s, StepCommand::Run(t(Negative)));
+        let (p, s) = plan_update(s, StepCommand::Run(t(Negative)), &CFG);
         assert_eq!(p, UpdatePlan::Restart { timing: t(Negative), dir_change: true });
         // stop, then start the same way: no DIR write needed
-        let (p, s) = plan_update(s, StepCommand::Stop);
+        let (p, s) = plan_update(s, StepCommand::Stop, &CFG);
         assert_eq!(p, UpdatePlan::Halt);
         assert_eq!(s, AxisOutput { running: false, dir: Some(Negative) });
-        let (p, _) = plan_update(s, StepCommand::Run(t(Negative)));
+        let (p, _) = plan_update(s, StepCommand::Run(t(Negative)), &CFG);
         assert_eq!(p, UpdatePlan::Restart { timing: t(Negative), dir_change: false });
+    }
+
+    #[test]
+    fn pulse_at_the_end_of_each_period() {
+        for rate in [20_000i32, 25_000, 1_000_000, 10_000_000, 110_590_000] {
+            let StepCommand::Run(t) = step_command(rate, &CFG).unwrap() else { panic!() };
+            let c = compares(&t);
+            assert_eq!(c.val1, t.period - 1);
+            assert_eq!(c.off, c.val1, "falling edge at the reload");
+            assert_eq!(c.off - c.on, t.pulse, "pulse width kept");
+            // first rising edge no earlier than the minimum low time after a
+            // counter start (here: at least half the period)
+            assert!(u32::from(c.on) * 2 >= u32::from(t.period) - 2, "{rate}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn stop_run_hysteresis() {
+        use Direction::*;
+        let run = |mhz: i32| step_command(mhz, &CFG).unwrap();
+        assert_eq!(CFG.start_max_ticks(), 6_000_000);
+        // stopped: 20..25 steps/s does not start
+        for r in [20_000, 22_000, 24_900, -24_900] {
+            let (p, s) = plan_update(AxisOutput::INIT, run(r), &CFG);
+            assert_eq!(p, UpdatePlan::Idle, "{r}");
+            assert!(!s.running);
+        }
+        // 25 steps/s starts
+        let (p, s) = plan_update(AxisOutput::INIT, run(25_000), &CFG);
+        assert!(matches!(p, UpdatePlan::Restart { .. }));
+        // running: keeps running down to 20 steps/s
+        let (p, s) = plan_update(s, run(20_000), &CFG);
+        assert!(matches!(p, UpdatePlan::Retime(_)));
+        // a rate dithering 19.9 / 20.1 steps/s: one halt, never a restart
+        let mut st = s;
+        let mut restarts = 0;
+        let mut halts = 0;
+        for k in 0..1000 {
+            let r = if k % 2 == 0 { 19_900 } else { 20_100 };
+            let (p, n) = plan_update(st, run(r), &CFG);
+            match p {
+                UpdatePlan::Restart { .. } => restarts += 1,
+                UpdatePlan::Halt => halts += 1,
+                _ => {}
+            }
+            st = n;
+        }
+        assert_eq!((halts, restarts), (1, 0));
+        assert_eq!(st.dir, Some(Positive));
+    }
+
+    #[test]
+    fn start_threshold_config_checked() {
+        assert!(!StepConfig { start_rate_mhz: 19_000, ..CFG }.is_valid());
+        assert!(StepConfig { start_rate_mhz: 20_000, ..CFG }.is_valid());
     }
 }

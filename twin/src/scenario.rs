@@ -1,0 +1,230 @@
+//! Simulator scenarios (`sim/scenarios/*.scn`, the language of
+//! `sim/README.md`, parsed by the simulator's own parser) run on the twin:
+//! the shipped image instead of the simulator's host build of the root.
+//!
+//! Supported actions: `send`, `stream driver|configurator RATE DUR cosine
+//! ...|jog ...` and `goto` (the simulator's own line formatting,
+//! `sim::client`, and its stream shapes, from the pose of the last driver
+//! feedback line as the simulator does), `cable pull|plug` (bytes sent while
+//! pulled are lost), `switch N press|release|auto`, `encoder N ok|low|high`
+//! (low and high both as a cut line: the twin's plant has no stuck-high),
+//! and the time anchors `homed`, `fault`, `estop`, `enabled` (taken from the
+//! image's event lines on Serial1: `HOMING_DONE`, `FAULT`, `STOPPED` after
+//! `SOFT_ESTOP`, `ENABLED`). Glitches, runaway, lost steps and noise are reported as
+//! skipped; a scenario that needs one is not comparable. Bytes go over the
+//! modelled 115 200 baud line, so a command reaches the image later than in
+//! the simulator (which hands them over at once): ~7 ms for a driver line.
+
+use kernel::config::AXES;
+use sim::client::{configurator_line, driver_line, driver_view};
+use sim::scenario::{Action, Anchor, Client, Motion, Scenario};
+
+use crate::{Plant, Twin, MS};
+
+/// What a scenario run on the twin produced.
+#[derive(Clone, Debug, Default)]
+pub struct Outcome {
+    /// Serial1 lines that are not feedback (events, banner), with the time
+    /// (ms) their first byte left the UART.
+    pub events: Vec<(u64, String)>,
+    /// Occurrences of each anchor (ms), indexed like `Anchor::index`.
+    pub anchors: [Vec<u64>; 4],
+    /// Simulated duration (ms).
+    pub end_ms: u64,
+    /// Joint angles at the end (rad).
+    pub q: [f64; 6],
+    /// Actions the twin cannot perform.
+    pub skipped: Vec<String>,
+    /// Wall-clock seconds.
+    pub wall_s: f64,
+}
+
+/// The anchor an event line marks. The simulator's `estop` anchor is the
+/// tick the state becomes `SoftEstop`, at the end of the stopping ramp: the
+/// `STOPPED` line after a `SOFT_ESTOP` (not the `SOFT_ESTOP` line itself,
+/// which starts the ramp).
+fn anchor_of(line: &str, estop_pending: &mut bool) -> Option<Anchor> {
+    if line.starts_with("HOMING_DONE") {
+        Some(Anchor::Homed)
+    } else if line.starts_with("FAULT") {
+        *estop_pending = false;
+        Some(Anchor::Fault)
+    } else if line.starts_with("SOFT_ESTOP") {
+        *estop_pending = true;
+        None
+    } else if line.starts_with("STOPPED") && std::mem::take(estop_pending) {
+        Some(Anchor::Estop)
+    } else if line.starts_with("ENABLED") {
+        Some(Anchor::Enabled)
+    } else {
+        None
+    }
+}
+
+/// The simulator's start pose and switch positions for `sc`.
+pub fn plant_for(sc: &Scenario) -> Plant {
+    let cfg = &kernel::config::PAROL6;
+    let mut opts = sim::plant::PlantOptions::new(cfg);
+    if let Some(p) = sc.pose {
+        opts.start = p;
+    }
+    let mut plant = Plant::new(cfg, opts.start);
+    for &(j, a) in &sc.switch_at {
+        if let Some(joint) = plant.joints.get_mut(j) {
+            joint.switch_at = a;
+        }
+    }
+    plant
+}
+
+/// A motion stream in progress (the simulator's `Stream`).
+struct Stream {
+    client: Client,
+    start: u64,
+    end: u64,
+    period: f64,
+    next: f64,
+    motion: Motion,
+    p0: [f64; AXES],
+    finished: bool,
+}
+
+impl Stream {
+    /// Pose and velocity at `t` (ms), as the simulator's runner computes
+    /// them.
+    fn sample(&self, t: u64) -> ([f64; AXES], [f64; AXES]) {
+        let el = (t.min(self.end) - self.start) as f64 / 1000.0;
+        match self.motion {
+            Motion::Cosine { period_ms, amp } => {
+                let w = std::f64::consts::TAU / (period_ms as f64 / 1000.0);
+                (
+                    std::array::from_fn(|i| self.p0[i] + amp[i] * (1.0 - (w * el).cos()) / 2.0),
+                    std::array::from_fn(|i| amp[i] * w * (w * el).sin() / 2.0),
+                )
+            }
+            Motion::Jog { joint, vel } => {
+                let mut p = self.p0;
+                p[joint] += vel * el;
+                let mut v = [0.0; AXES];
+                if t < self.end {
+                    v[joint] = vel;
+                }
+                (p, v)
+            }
+        }
+    }
+}
+
+/// The two host programs' sequence numbers.
+#[derive(Default)]
+struct Hosts {
+    driver_seq: u32,
+    config_seq: u32,
+}
+
+impl Hosts {
+    fn frame(&mut self, client: Client, p: &[f64; AXES], v: &[f64; AXES]) -> String {
+        match client {
+            Client::Driver => {
+                self.driver_seq = self.driver_seq.wrapping_add(1);
+                driver_line(self.driver_seq.wrapping_sub(1), p, v)
+            }
+            Client::Configurator => {
+                self.config_seq = self.config_seq.wrapping_add(1);
+                configurator_line(self.config_seq.wrapping_sub(1), p, v)
+            }
+        }
+    }
+}
+
+/// Run `sc` on the image `elf`, 1 ms at a time, until its `end` (or `max`).
+pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
+    let mut t = Twin::new(elf, plant_for(sc))?;
+    let wall = std::time::Instant::now();
+    let mut out = Outcome::default();
+    let mut fired = vec![false; sc.actions.len()];
+    let mut consumed = 0usize; // bytes of tx_out already split into lines
+    let mut line = String::new();
+    let mut line_t: Option<u64> = None;
+    let mut ms = 0u64;
+    let mut streams: Vec<Stream> = Vec::new();
+    let mut hosts = Hosts::default();
+    let mut cable = true;
+    let mut last_view: Option<[f64; AXES]> = None;
+    let mut estop_pending = false;
+    loop {
+        let end = sc.end.resolve(&out.anchors);
+        if ms >= sc.max_ms || end.is_some_and(|e| ms >= e) {
+            break;
+        }
+        for (k, (when, action)) in sc.actions.iter().enumerate() {
+            if fired[k] || when.resolve(&out.anchors).is_none_or(|at| at > ms) {
+                continue;
+            }
+            fired[k] = true;
+            let pose_now = last_view.unwrap_or(t.board().plant.q());
+            let b = t.board_mut();
+            match action {
+                Action::Send(bytes) if cable => b.serial_send(bytes),
+                Action::Send(_) => {}
+                Action::Stream { client, rate_hz, duration_ms, motion } => streams.push(Stream {
+                    client: *client,
+                    start: ms,
+                    end: ms + duration_ms,
+                    period: 1000.0 / rate_hz,
+                    next: ms as f64,
+                    motion: *motion,
+                    p0: pose_now,
+                    finished: false,
+                }),
+                Action::Goto { client, pose } => {
+                    let l = hosts.frame(*client, pose, &[0.0; AXES]);
+                    if cable {
+                        b.serial_send(l.as_bytes());
+                    }
+                }
+                Action::Cable(c) => cable = *c,
+                Action::Switch(j, force) => b.plant.joints[*j].force_switch = *force,
+                Action::Encoder(j, l) => b.plant.joints[*j].encoder_cut = !matches!(l, sim::encoder::Line::Ok),
+                other => out.skipped.push(format!("{when} {other:?}")),
+            }
+        }
+        for s in streams.iter_mut().filter(|s| !s.finished) {
+            if (ms as f64) + 1e-9 < s.next {
+                continue;
+            }
+            s.next += s.period;
+            let (p, v) = s.sample(ms);
+            let l = hosts.frame(s.client, &p, &v);
+            if cable {
+                t.board_mut().serial_send(l.as_bytes());
+            }
+            s.finished = ms >= s.end;
+        }
+        ms += 1;
+        t.run_until(ms * MS).map_err(|f| f.to_string())?;
+        let tx = &t.board().uart.tx_out;
+        for &(done, byte) in &tx[consumed..] {
+            if byte == b'\n' {
+                let l = std::mem::take(&mut line);
+                let at = line_t.take().unwrap_or(done) / MS;
+                if let Some(v) = driver_view(&l) {
+                    last_view = Some(v.position);
+                } else if !l.starts_with('<') && !l.starts_with(' ') {
+                    if let Some(a) = anchor_of(&l, &mut estop_pending) {
+                        out.anchors[a.index()].push(at);
+                    }
+                    out.events.push((at, l));
+                }
+            } else if byte != b'\r' {
+                line_t.get_or_insert(done);
+                line.push(char::from(byte));
+            }
+        }
+        consumed = tx.len();
+    }
+    out.end_ms = ms;
+    out.q = t.board().plant.q();
+    out.wall_s = wall.elapsed().as_secs_f64();
+    Ok(out)
+}
