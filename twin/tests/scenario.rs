@@ -39,7 +39,7 @@ fn compare(file: &str) {
     let elf = twin::load_image().unwrap();
     let tw = twin::scenario::run(&sc, &elf).unwrap();
     assert!(tw.skipped.is_empty(), "scenario needs actions the twin lacks: {:?}", tw.skipped);
-    let cfg = &kernel::config::PAROL6;
+    let cfg = &kernel::config::PAROL6_VALIDATED;
     let rep = sim_run(cfg, &sc, &RunOptions { serial1: true }, &mut |_| {});
     // event lines: not feedback, not the boot banner and READY (the
     // simulator prints them at 0 ms, the image after its 30 ms encoder
