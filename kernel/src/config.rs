@@ -521,8 +521,9 @@ const fn check_joint(j: &JointConfig, c: &ArmConfig, dt: f32) -> Result<(), &'st
     if j.runaway_velocity > 32.0 {
         return Err("runaway threshold absurdly high");
     }
-    // After coasting over invalid samples the window grows with their count.
-    if j.jump_window_counts(c.tick_hz, c.encoder_invalid_limit + 1) >= COUNTS_PER_REV / 4 {
+    // After coasting over invalid samples the window is multiplied by their
+    // count plus one (`Axis::sense_and_estimate`).
+    if j.max_jump_counts(c.tick_hz) * (c.encoder_invalid_limit as i32 + 1) >= COUNTS_PER_REV / 4 {
         return Err("encoder plausibility window too wide to unwrap unambiguously");
     }
     if !(finite(j.max_acceleration) && j.max_acceleration > 0.0 && j.max_acceleration <= 200.0) {
@@ -643,7 +644,7 @@ mod tests {
         assert!(with(|c| c.joints[3].homing.fast_speed = 7.0).is_err());
         assert!(with(|c| c.joints[3].homing.switch_position = -3.0).is_err());
         assert!(with(|c| c.encoder_invalid_limit = 11).is_err());
-        assert!(with(|c| c.encoder_invalid_limit = 10).is_err()); // J3: 11 ticks + 2 frames exceed 1024 counts
+        assert!(with(|c| c.encoder_invalid_limit = 4).is_err()); // J3's window x5 exceeds 1024 counts
         assert!(with(|c| c.joints[4].max_acceleration = 0.0).is_err());
     }
 

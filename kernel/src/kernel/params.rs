@@ -75,10 +75,8 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub k_count: S::Wide,
     pub k_rate: S::Wide,
     pub enc_sign: i32,
-    /// Plausibility window (counts) for one tick, and its growth per
-    /// skipped sample.
+    /// Plausibility window (counts) for one tick.
     pub max_jump: i32,
-    pub jump_per_tick: i32,
     pub switch_position: S,
     /// Re-homing a homed joint: fast-seek travel allowed beyond the known
     /// distance to its switch (rad): 0.1 rad plus the braking distance.
@@ -110,7 +108,6 @@ impl<S: Scalar> AxisParams<S> {
             k_rate: S::wide_from_f64(j.steps_per_rad() * motor),
             enc_sign: if j.encoder_reversed { -1 } else { 1 },
             max_jump: j.max_jump_counts(c.tick_hz),
-            jump_per_tick: j.jump_window_counts(c.tick_hz, 2).saturating_sub(j.max_jump_counts(c.tick_hz)),
             switch_position: S::from_f32(j.homing.switch_position),
             rehome_margin: S::from_f32(0.1 + j.braking_distance(j.homing.fast_speed)),
             homing: HomingParams {
