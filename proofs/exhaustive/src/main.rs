@@ -38,7 +38,13 @@ fn all_u32(prop: impl Fn(u32) -> bool + Sync) -> Option<u32> {
     (0..=u32::MAX).into_par_iter().find_any(|b| !prop(*b))
 }
 
-fn sweep(req: &'static str, scope: &'static str, name: String, cases: u64, f: impl FnOnce() -> Option<String>) -> Sweep {
+fn sweep(
+    req: &'static str,
+    scope: &'static str,
+    name: String,
+    cases: u64,
+    f: impl FnOnce() -> Option<String>,
+) -> Sweep {
     let t = Instant::now();
     let counterexample = f();
     let s = Sweep { requirement: req, scope, name, cases, counterexample, seconds: t.elapsed().as_secs_f64() };
@@ -73,33 +79,45 @@ fn main() {
     eprintln!("exhaustive sweeps ({} threads)", rayon::current_num_threads());
 
     // SR-12: unwrapping over every pair of readings.
-    results.push(sweep("SR-12", "exhaustive", "unwrap: every (previous, next) 12-bit reading pair".into(), 4096 * 4096, || {
-        (0u32..4096 * 4096)
-            .into_par_iter()
-            .find_any(|i| {
-                let (a, b) = ((i >> 12) as u16, (i & 0xfff) as u16);
-                let d = wrap_delta(a, b);
-                let mut u = Unwrapper::new(a);
-                u.update(b);
-                !((-2048..=2047).contains(&d)
-                    && (i32::from(a) + d).rem_euclid(4096) == i32::from(b)
-                    && u.total() == i32::from(a) + d
-                    && u.last() == b)
-            })
-            .map(|i| format!("prev {}, next {}", i >> 12, i & 0xfff))
-    }));
+    results.push(sweep(
+        "SR-12",
+        "exhaustive",
+        "unwrap: every (previous, next) 12-bit reading pair".into(),
+        4096 * 4096,
+        || {
+            (0u32..4096 * 4096)
+                .into_par_iter()
+                .find_any(|i| {
+                    let (a, b) = ((i >> 12) as u16, (i & 0xfff) as u16);
+                    let d = wrap_delta(a, b);
+                    let mut u = Unwrapper::new(a);
+                    u.update(b);
+                    !((-2048..=2047).contains(&d)
+                        && (i32::from(a) + d).rem_euclid(4096) == i32::from(b)
+                        && u.total() == i32::from(a) + d
+                        && u.last() == b)
+                })
+                .map(|i| format!("prev {}, next {}", i >> 12, i & 0xfff))
+        },
+    ));
 
     // SR-2, SR-3: saturation, both variants, each distinct max velocity.
     for ((vmax, _), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, 0.0)) {
         let l = Fx::from_f32(vmax);
-        results.push(sweep("SR-2", "slice", format!("saturate I8F24: every x, limit = {vmax} only (J{joints:?})"), full, || {
-            all_u32(|b| {
-                let x = Fx::from_bits(b as i32);
-                let y = x.saturate(l);
-                Scalar::abs(y) <= l && (y == x || (x > l && y == l) || (x < -l && y == -l))
-            })
-            .map(|b| format!("x bits {b:#010x}"))
-        }));
+        results.push(sweep(
+            "SR-2",
+            "slice",
+            format!("saturate I8F24: every x, limit = {vmax} only (J{joints:?})"),
+            full,
+            || {
+                all_u32(|b| {
+                    let x = Fx::from_bits(b as i32);
+                    let y = x.saturate(l);
+                    Scalar::abs(y) <= l && (y == x || (x > l && y == l) || (x < -l && y == -l))
+                })
+                .map(|b| format!("x bits {b:#010x}"))
+            },
+        ));
         results.push(sweep(
             "SR-2/3",
             "slice",
@@ -161,7 +179,9 @@ fn main() {
         results.push(sweep(
             "SR-18",
             "slice",
-            format!("interpolator I8F24: first step from 0 toward every target, n = 10 only, vmax {vmax} (J{joints:?})"),
+            format!(
+                "interpolator I8F24: first step from 0 toward every target, n = 10 only, vmax {vmax} (J{joints:?})"
+            ),
             full,
             || {
                 all_u32(|b| {
@@ -183,16 +203,22 @@ fn main() {
         beta_hz: Fx::from_f32(PAROL6.beta * PAROL6.tick_hz as f32),
         dt: Fx::from_f32(1.0 / PAROL6.tick_hz as f32),
     };
-    results.push(sweep("SR-3", "slice", "observer I8F24: one step from rest (x = v = 0), every measurement".into(), full, || {
-        all_u32(|b| {
-            let z = Fx::from_bits(b as i32);
-            let mut o = AlphaBeta::at(Fx::ZERO);
-            o.step(z, &g);
-            let (lo, hi) = (Ord::min(z, Fx::ZERO), Ord::max(z, Fx::ZERO));
-            o.x >= lo && o.x <= hi && (o.v >= Fx::ZERO) == (z >= Fx::ZERO)
-        })
-        .map(|b| format!("z bits {b:#010x}"))
-    }));
+    results.push(sweep(
+        "SR-3",
+        "slice",
+        "observer I8F24: one step from rest (x = v = 0), every measurement".into(),
+        full,
+        || {
+            all_u32(|b| {
+                let z = Fx::from_bits(b as i32);
+                let mut o = AlphaBeta::at(Fx::ZERO);
+                o.step(z, &g);
+                let (lo, hi) = (Ord::min(z, Fx::ZERO), Ord::max(z, Fx::ZERO));
+                o.x >= lo && o.x <= hi && (o.v >= Fx::ZERO) == (z >= Fx::ZERO)
+            })
+            .map(|b| format!("z bits {b:#010x}"))
+        },
+    ));
 
     let failed: Vec<&Sweep> = results.iter().filter(|s| s.counterexample.is_some()).collect();
     let total: u64 = results.iter().map(|s| s.cases).sum();

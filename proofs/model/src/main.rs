@@ -2,11 +2,13 @@
 //! over the real `kernel::Kernel` (`cargo run -p model --release`).
 //!
 //! ```text
-//! model [--variant fx|f32] [--config full|small] [--expect-violation NAME]
+//! model [--variant fx|f32] [--config full|small|tiny] [--expect-violation NAME] [--timeout S]
 //! ```
 //!
 //! With no arguments: the full configuration over `Kernel<Fx>`, then the
-//! small configuration over `Kernel<f32>`. `--expect-violation NAME` is for
+//! tiny configuration over `Kernel<f32>` (its states are identified by
+//! formatting them, about 25 times slower per state than the fixed-point
+//! hash; the small configuration takes over 10 minutes in f32). `--expect-violation NAME` is for
 //! the mutation tests (`mutants.sh`): it succeeds only if a property whose
 //! name contains NAME is violated.
 //!
@@ -43,6 +45,9 @@
 //!   every perturbation in every state. The two configurations together
 //!   cover every arrival order and every perturbation during homing, not
 //!   every combination of the two.
+//! - Tiny configuration (`--config tiny`, the f32 variant): the small one
+//!   with four perturbations (none, J1 lost, hardware fault, J6 stray
+//!   switch; not the J1 glitch and the J1 stray switch).
 //! - States are identified by `Kernel`'s behavioural hash (everything but the
 //!   tick counter and the fault timestamp, which no decision reads) plus the
 //!   plant. `Kernel<f32>` has no `Hash` (f32 has none): its states are
@@ -89,7 +94,10 @@ const MODEL_CONFIG: ArmConfig = {
 /// breaks); the same two as `proofs::setup::PROOF_RELAXATIONS`.
 const MODEL_RELAXATIONS: [(&str, &str); 2] = [
     ("joints[*].homing.backoff = 0", "homing back-off must be in (0, 0.5) rad"),
-    ("joints[*].homing.timeout_ms = 8", "homing timeout shorter than 1.2x the nominal homing time: homing is impossible"),
+    (
+        "joints[*].homing.timeout_ms = 8",
+        "homing timeout shorter than 1.2x the nominal homing time: homing is impossible",
+    ),
 ];
 
 /// The J1 encoder as seen by the plant: the count it was (re)initialised
@@ -119,10 +127,13 @@ impl ModelScalar for Fx {
 impl ModelScalar for f32 {
     const NAME: &'static str = "Kernel<f32>";
     fn hash_kernel<H: Hasher>(k: &Kernel<Self>, h: &mut H) {
-        // The Debug text minus `tick: N` (the tick counter and the fault
-        // timestamp; `boot_ticks`/`ticks` are other fields and are kept).
+        // The Debug text from the per-axis state on, minus `tick: N` (the
+        // tick counter and the fault timestamp; `boot_ticks`/`ticks` are
+        // other fields and are kept).
         let text = format!("{k:?}");
-        let mut rest = text.as_str();
+        // The identity and the parameters (constants, most of the text)
+        // come before the per-axis state `axes: [Axis {`.
+        let mut rest = text.find("axes: [Axis {").map_or(text.as_str(), |i| &text[i..]);
         while let Some(i) = rest.find("tick: ") {
             let before = &rest[..i];
             let whole_word = !before.ends_with(|c: char| c.is_alphanumeric() || c == '_');
@@ -223,8 +234,7 @@ const REQUESTS_HOMING: [Option<Req>; 2] = [None, Some(Req::MotionNear)];
 /// Perturbations the full configuration explores during homing (with every
 /// arrival order); the small one explores all six there (with all-or-nothing
 /// arrivals). Without this the full run outgrew its time budget.
-const PERTURBATIONS_HOMING: [Perturb; 4] =
-    [Perturb::None, Perturb::LostJ1, Perturb::Hardware, Perturb::StraySwitch(5)];
+const PERTURBATIONS_HOMING: [Perturb; 4] = [Perturb::None, Perturb::LostJ1, Perturb::Hardware, Perturb::StraySwitch(5)];
 
 /// One tick: a request, a sensor perturbation, and which switches of the
 /// moving homing axes are pressed.
@@ -242,6 +252,8 @@ struct Supervisor<S: Scalar> {
     authority: Authority,
     here: [S; AXES],
     small: bool,
+    /// The tiny configuration (f32): small, and only four perturbations.
+    tiny: bool,
 }
 
 const GLITCH: u16 = COUNTS[0] + 1500;
@@ -352,8 +364,11 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         } else {
             &REQUESTS_FULL
         };
-        let perturbations: &[Perturb] =
-            if !self.small && s.k.state() == State::Homing { &PERTURBATIONS_HOMING } else { &PERTURBATIONS };
+        let perturbations: &[Perturb] = if self.tiny || (!self.small && s.k.state() == State::Homing) {
+            &PERTURBATIONS_HOMING
+        } else {
+            &PERTURBATIONS
+        };
         for &pressed in &masks {
             for &perturb in perturbations {
                 for &req in reqs {
@@ -400,7 +415,9 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         let stop_ticks = MODEL_CONFIG.soft_stop_ms * MODEL_CONFIG.tick_hz / 1000;
         n.ramp = match (s.ramp, st) {
             // (A fault in the timeout's tick zeroes everything instead.)
-            _ if st == State::Stopping && has(&|e| matches!(e, Event::SoftEstop { .. })) => Some((1, s.k.last_output())),
+            _ if st == State::Stopping && has(&|e| matches!(e, Event::SoftEstop { .. })) => {
+                Some((1, s.k.last_output()))
+            }
             (Some((k, v0)), State::Stopping | State::SoftEstop) if before == State::Stopping => Some((k + 1, v0)),
             _ => None,
         };
@@ -413,8 +430,11 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             v(off, "SR-7: a ramp output is not v0 (N - k) / N");
             v((k >= stop_ticks) != (st == State::SoftEstop), "SR-7: the ramp did not end in SoftEstop at k = N");
             v(k >= stop_ticks && !zero(&out), "SR-7: not every axis exactly zero at k = N");
-            v(k < stop_ticks && (0..AXES).any(|i| out[i] == S::ZERO && v0[i] != S::ZERO && left * f64v(v0[i]).abs() > 1e-6),
-                "SR-7: an axis stopped before the others");
+            v(
+                k < stop_ticks
+                    && (0..AXES).any(|i| out[i] == S::ZERO && v0[i] != S::ZERO && left * f64v(v0[i]).abs() > 1e-6),
+                "SR-7: an axis stopped before the others",
+            );
         }
         if st == State::Homing {
             let phases = n.k.homing_phases();
@@ -438,14 +458,19 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         // that tick, or later in Unhomed, never faults).
         let homing_started = has(&|e| matches!(e, Event::HomingStarted { .. }));
         let ended_unhomed = has(&|e| matches!(e, Event::HomingDone { .. })) && st == State::Unhomed;
-        let switch_is_fault = !homing_started && !ended_unhomed && (0..AXES).any(|i| {
-            sense.limits & (1 << i) != 0
-                && (matches!(before, State::Operational | State::Stopping | State::SoftEstop)
-                    || (before == State::Homing && s.k.homed() & (1 << i) != 0 && !phases_before[i].is_moving()))
-        });
+        let switch_is_fault = !homing_started
+            && !ended_unhomed
+            && (0..AXES).any(|i| {
+                sense.limits & (1 << i) != 0
+                    && (matches!(before, State::Operational | State::Stopping | State::SoftEstop)
+                        || (before == State::Homing && s.k.homed() & (1 << i) != 0 && !phases_before[i].is_moving()))
+            });
         v(switch_is_fault && st != State::Fault, "SR-10: a limit switch did not fault in the same tick");
         // SR-21: a hardware fault faults in the same tick, in every state.
-        v(sense.hardware_fault.is_some() && st != State::Fault, "SR-21: a hardware fault did not fault in the same tick");
+        v(
+            sense.hardware_fault.is_some() && st != State::Fault,
+            "SR-21: a hardware fault did not fault in the same tick",
+        );
         // SR-11: the (limit + 1)-th consecutive invalid J1 sample (lost, or
         // more than the plausibility window from the count J1 was
         // initialised from) faults in the same tick; fewer are ridden through.
@@ -465,7 +490,10 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             let crossed = s.j1.run <= limit && n.j1.run == limit + 1;
             v(crossed && st != State::Fault, "SR-11: the encoder fault did not come in the same tick");
             let j1_fault = has(&|e| {
-                matches!(e, Event::Fault(FaultReason::EncoderLost { axis: 0 } | FaultReason::EncoderJump { axis: 0, .. }))
+                matches!(
+                    e,
+                    Event::Fault(FaultReason::EncoderLost { axis: 0 } | FaultReason::EncoderJump { axis: 0, .. })
+                )
             });
             v(n.j1.run <= limit && j1_fault, "SR-11: an encoder fault within the tolerance");
         } else if let EncoderSample::Count(c) = j1 {
@@ -552,9 +580,10 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             Property::<Self>::sometimes("enable accepted", |_, s: &St<S>| s.ever_enabled),
         ];
         if !self.small {
-            p.push(Property::<Self>::sometimes("axes of one homing group out of step (arrival orders)", |_, s: &St<S>| {
-                out_of_step(&s.k.homing_phases())
-            }));
+            p.push(Property::<Self>::sometimes(
+                "axes of one homing group out of step (arrival orders)",
+                |_, s: &St<S>| out_of_step(&s.k.homing_phases()),
+            ));
         }
         p
     }
@@ -568,7 +597,8 @@ struct Run {
     violated: Vec<String>,
 }
 
-fn run<S: ModelScalar>(small: bool, expect: Option<&str>, timeout: Option<u64>) -> Run {
+fn run<S: ModelScalar>(cfg: &str, expect: Option<&str>, timeout: Option<u64>) -> Run {
+    let (small, tiny) = (cfg != "full", cfg == "tiny");
     // Valid targets near the stationary arm: it ends homing on its switches,
     // which lie just outside the URDF limits, so clamp 10 mrad inside them.
     let (mut k, _) = proofs::setup::operational::<S>();
@@ -578,7 +608,7 @@ fn run<S: ModelScalar>(small: bool, expect: Option<&str>, timeout: Option<u64>) 
         *h = h.clamp_between(S::from_f32(j.limit_min + 0.01), S::from_f32(j.limit_max - 0.01));
     }
     let (init, authority) = new_kernel::<S>(&MODEL_CONFIG);
-    let model = Supervisor { init, authority, here, small };
+    let model = Supervisor { init, authority, here, small, tiny };
     let started = std::time::Instant::now();
     // A cap on generated states (stateright counts every generated state, not
     // only unique ones) so that a state explosion reports instead of
@@ -611,7 +641,10 @@ fn run<S: ModelScalar>(small: bool, expect: Option<&str>, timeout: Option<u64>) 
     let checker = checker.join();
     let secs = started.elapsed().as_secs_f64();
     if timeout.is_some_and(|t| secs >= t as f64) {
-        println!("model: stopped by --timeout after {secs:.0} s: NOT exhaustive ({} unique states)", checker.unique_state_count());
+        println!(
+            "model: stopped by --timeout after {secs:.0} s: NOT exhaustive ({} unique states)",
+            checker.unique_state_count()
+        );
         std::process::exit(2);
     }
     if checker.state_count() >= CAP {
@@ -662,24 +695,28 @@ fn main() {
     let arg = |k: &str| args.iter().position(|a| a == k).and_then(|i| args.get(i + 1)).map(String::as_str);
     let expect = arg("--expect-violation");
     let timeout = arg("--timeout").and_then(|t| t.parse().ok());
-    let runs: Vec<(&str, bool)> = match (arg("--variant"), arg("--config")) {
-        (None, None) => vec![("fx", false), ("f32", true)],
-        (v, c) => vec![(v.unwrap_or("fx"), c == Some("small"))],
+    let runs: Vec<(&str, &str)> = match (arg("--variant"), arg("--config")) {
+        (None, None) => vec![("fx", "full"), ("f32", "tiny")],
+        (v, c) => vec![(v.unwrap_or("fx"), c.unwrap_or("full"))],
     };
     for (field, rule) in MODEL_RELAXATIONS {
         println!("model: configuration relaxes {field} (breaks '{rule}'; see the doc comment)");
     }
     let mut tsv = String::new();
-    for (variant, small) in runs {
+    for (variant, cfg) in runs {
+        if !matches!(cfg, "full" | "small" | "tiny") {
+            eprintln!("model: unknown configuration {cfg}");
+            std::process::exit(2);
+        }
         let r = match variant {
-            "fx" => run::<Fx>(small, expect, timeout),
-            "f32" => run::<f32>(small, expect, timeout),
+            "fx" => run::<Fx>(cfg, expect, timeout),
+            "f32" => run::<f32>(cfg, expect, timeout),
             other => {
                 eprintln!("model: unknown variant {other}");
                 std::process::exit(2);
             }
         };
-        let (name, cfg) = (if variant == "fx" { "Kernel<Fx>" } else { "Kernel<f32>" }, if small { "small" } else { "full" });
+        let name = if variant == "fx" { "Kernel<Fx>" } else { "Kernel<f32>" };
         println!(
             "model-checked {name}, {cfg} configuration: {} states ({} unique), max depth {}, {:.1} s",
             r.generated, r.unique, r.depth, r.secs
@@ -693,8 +730,13 @@ fn main() {
             println!("model: violated as expected: {hit:?}");
             continue;
         }
-        println!("model-checked {name}: every property holds in every reachable state; every 'sometimes' property reached");
-        tsv.push_str(&format!("model\tmodel-checked\t{}\tholds\tsupervisor + homing, {name}, {cfg} configuration\n", r.unique));
+        println!(
+            "model-checked {name}: every property holds in every reachable state; every 'sometimes' property reached"
+        );
+        tsv.push_str(&format!(
+            "model\tmodel-checked\t{}\tholds\tsupervisor + homing, {name}, {cfg} configuration\n",
+            r.unique
+        ));
     }
     if expect.is_none() {
         if let Ok(dir) = std::env::var("EVIDENCE_DIR") {
