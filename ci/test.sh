@@ -67,6 +67,9 @@ if [ "${QUICK:-0}" != "1" ]; then
 
     step "Miri on the SPSC queue tests"
     protocol/miri.sh
+
+    step "SMT proofs (z3, the kernel's generic per-axis code on symbolic f32 / I8F24)"
+    proofs/smt/run.sh
 fi
 
 step "evidence summary"

@@ -118,6 +118,8 @@ struct Explorer {
     choices: u32,
     /// Decisions are evaluated by simplification (ground terms only).
     evaluate: bool,
+    /// Feasibility checks z3 could not decide in time.
+    unknown: u64,
 }
 
 /// The per-thread context.
@@ -195,7 +197,7 @@ impl Ctx {
     }
 
     /// Starts z3 afresh with the definitions `roots` need (and only
-    /// those): every check is a one-shot problem (see [`crate::z3::TACTIC`]).
+    /// those): every check is a one-shot problem (see `z3::check_command`).
     fn load(&mut self, roots: &[u32]) {
         let mut need = vec![false; self.nodes.len()];
         let mut stack: Vec<u32> = roots.to_vec();
@@ -213,7 +215,7 @@ impl Ctx {
     }
 
     /// Satisfiability of the path condition plus `extra`.
-    fn check_with(&mut self, extra: Option<(u32, bool)>) -> Sat {
+    fn check_with(&mut self, extra: Option<(u32, bool)>, timeout_ms: u32) -> Sat {
         let mut lits = self.explorer.lits.clone();
         lits.extend(extra);
         let ids: Vec<u32> = lits.iter().map(|l| l.0).chain(self.vars.iter().map(|v| v.1)).collect();
@@ -221,7 +223,7 @@ impl Ctx {
         for &(id, v) in &lits {
             self.z3.send(&format!("(assert {})", literal(id, v)));
         }
-        self.z3.check()
+        self.z3.check(timeout_ms)
     }
 }
 
@@ -303,10 +305,21 @@ pub fn decide(cond: u32) -> bool {
         let outcome = if let Some(&o) = c.explorer.prefix.get(i) {
             o
         } else {
-            let t = c.check_with(Some((cond, true)));
+            // `unknown` counts as feasible: an infeasible path explored
+            // costs time, never soundness (its property check is then
+            // trivially unsatisfiable).
+            let ms = crate::z3::decide_timeout_ms();
+            let t = c.check_with(Some((cond, true)), ms);
+            if t == Sat::Unknown {
+                c.explorer.unknown += 1;
+            }
+            let f = if t == Sat::Unsat { Sat::Unsat } else { c.check_with(Some((cond, false)), ms) };
+            if f == Sat::Unknown {
+                c.explorer.unknown += 1;
+            }
             if t == Sat::Unsat {
                 false
-            } else if c.check_with(Some((cond, false))) == Sat::Sat {
+            } else if f != Sat::Unsat {
                 let mut p = c.explorer.decisions.clone();
                 p.push(false);
                 c.explorer.pending.push(p);
@@ -336,7 +349,7 @@ pub fn assume(cond: u32) {
             return;
         }
         let replaying = c.explorer.decisions.len() < c.explorer.prefix.len();
-        if !replaying && c.check_with(Some((cond, true))) == Sat::Unsat {
+        if !replaying && c.check_with(Some((cond, true)), crate::z3::property_timeout_ms()) == Sat::Unsat {
             c.explorer.dead = true;
             return;
         }
@@ -356,6 +369,9 @@ pub struct Outcome {
     pub discarded: u64,
     /// Satisfiability checks made.
     pub checks: u64,
+    /// Feasibility checks z3 could not decide in time (both outcomes were
+    /// explored).
+    pub undecided: u64,
     /// Wall-clock time.
     pub time: Duration,
     /// `None`: the property holds on every path. `Some`: inputs for which
@@ -370,11 +386,11 @@ impl Outcome {
     }
 }
 
-/// Proves that the Boolean term returned by `f` holds on every feasible
+/// Proves that the Boolean terms returned by `f` hold on every feasible
 /// path of `f` (for every value of every input `f` declares with [`var`]
 /// that satisfies its [`assume`]s). Stops at the first counterexample.
 /// Panics if no path is feasible (a vacuous precondition).
-pub fn explore(mut f: impl FnMut() -> u32) -> Outcome {
+pub fn explore(mut f: impl FnMut() -> Vec<u32>) -> Outcome {
     let t0 = Instant::now();
     let checks0 = with(|c| {
         c.explorer = Explorer { pending: vec![Vec::new()], ..Explorer::default() };
@@ -391,36 +407,44 @@ pub fn explore(mut f: impl FnMut() -> u32) -> Outcome {
             e.dead = false;
             e.choices = 0;
         });
-        let prop = f();
+        let props = f();
         let cex = with(|c| {
             if c.explorer.dead {
                 discarded += 1;
                 return None;
             }
             paths += 1;
-            match c.check_with(Some((prop, false))) {
-                Sat::Unsat => None,
-                Sat::Sat => {
-                    let names: Vec<String> = c.vars.iter().map(|(_, id)| name(*id)).collect();
-                    let values = c.z3.values(&names);
-                    Some(c.vars.iter().map(|(l, _)| l.clone()).zip(values).collect::<Counterexample>())
+            // One check per conjunct: smaller problems than their conjunction.
+            for &prop in &props {
+                match c.check_with(Some((prop, false)), crate::z3::property_timeout_ms()) {
+                    Sat::Unsat => {}
+                    Sat::Unknown => panic!(
+                        "z3 could not decide a property check within {} ms: the proof is NOT established",
+                        crate::z3::property_timeout_ms()
+                    ),
+                    Sat::Sat => {
+                        let names: Vec<String> = c.vars.iter().map(|(_, id)| name(*id)).collect();
+                        let values = c.z3.values(&names);
+                        return Some(c.vars.iter().map(|(l, _)| l.clone()).zip(values).collect::<Counterexample>());
+                    }
                 }
             }
+            None
         });
         if cex.is_some() {
             counterexample = cex;
             break;
         }
     }
-    let checks = with(|c| {
+    let (checks, undecided) = with(|c| {
         c.explorer.pending.clear();
-        c.z3.checks - checks0
+        (c.z3.checks - checks0, c.explorer.unknown)
     });
     assert!(
         paths > 0 || counterexample.is_some(),
         "vacuous: no path satisfies the preconditions ({discarded} discarded)"
     );
-    Outcome { paths, discarded, checks, time: t0.elapsed(), counterexample }
+    Outcome { paths, discarded, checks, undecided, time: t0.elapsed(), counterexample }
 }
 
 /// Runs `f` with decisions evaluated by z3's simplifier (every term must be
@@ -468,6 +492,10 @@ pub fn satisfiable(lits: &[u32]) -> bool {
         for &l in lits {
             c.z3.send(&format!("(assert {})", name(l)));
         }
-        c.z3.check() == Sat::Sat
+        match c.z3.check(crate::z3::property_timeout_ms()) {
+            Sat::Sat => true,
+            Sat::Unsat => false,
+            Sat::Unknown => panic!("z3 could not decide a check"),
+        }
     })
 }

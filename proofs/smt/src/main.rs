@@ -1,14 +1,23 @@
 //! Runs every SMT proof (two at a time, one z3 each) and prints each
 //! proof's verdict, path count and time. Exit status 1 if any is not
-//! proved. `smt FILTER` runs the proofs whose name contains FILTER.
+//! proved. `smt FILTER` runs the proofs whose "name variant joints" contains
+//! FILTER; `--extended` adds the proofs not established within the test
+//! command's budget (see README.md).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
 fn main() {
-    let filter = std::env::args().nth(1).unwrap_or_default();
-    let proofs: Vec<smt::Proof> = smt::all().into_iter().filter(|p| p.name.contains(filter.as_str())).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let extended = args.iter().any(|a| a == "--extended");
+    args.retain(|a| a != "--extended");
+    let filter = args.first().cloned().unwrap_or_default();
+    let proofs: Vec<smt::Proof> = smt::all()
+        .into_iter()
+        .filter(|p| extended || !p.extended)
+        .filter(|p| format!("{} {} {}", p.name, p.variant, p.joints_label()).contains(filter.as_str()))
+        .collect();
     assert!(!proofs.is_empty(), "no proof matches {filter:?}");
     let workers = std::env::var("SMT_JOBS").ok().and_then(|s| s.parse().ok()).unwrap_or(2usize).max(1);
     println!("SMT proofs: {} obligations, {} at a time, z3 over a pipe", proofs.len(), workers);
@@ -23,10 +32,11 @@ fn main() {
                 let o = p.run();
                 let verdict = if o.proved() { "proved" } else { "COUNTEREXAMPLE" };
                 println!(
-                    "  {verdict:<14} {:>6.1} s  {:>4} paths  {:>5} checks  {:<6} {:<12} {}",
+                    "  {verdict:<14} {:>6.1} s  {:>4} paths  {:>5} checks ({} undecided)  {:<6} {:<12} {}",
                     o.time.as_secs_f64(),
                     o.paths,
                     o.checks,
+                    o.undecided,
                     p.variant,
                     p.joints_label(),
                     p.name

@@ -26,30 +26,30 @@ fn within<S: Sym>(x: S, lo: S, hi: S) -> B {
 /// `[-limit, limit]`, equal to `x` when `x` is inside, `+-limit` when a
 /// finite `x` is outside, `+0` for a non-finite `x`. `f` is the function
 /// under proof (`Scalar::saturate`; the tests pass broken ones).
-pub fn saturate<S: Sym>(f: fn(S, S) -> S) -> B {
+pub fn saturate<S: Sym>(f: fn(S, S) -> S) -> Vec<B> {
     let x = S::var("x");
     let limit = S::var("limit");
     limit.t_finite().and(S::ZERO.t_le(limit)).assume();
     let y = f(x, limit);
-    B::all(&[
+    vec![
         y.t_finite(),
         y.abs().t_le(limit),
         x.t_finite().not().implies(y.t_same(S::ZERO)),
         within(x, limit.neg(), limit).implies(y.t_eq(x)),
         x.t_finite().and(within(x, limit.neg(), limit).not()).implies(y.abs().t_eq(limit)),
-    ])
+    ]
 }
 
 /// `Scalar::clamp_between` (the soft-stop ramp, the homing ramp and the
 /// output acceleration limit clamp with it): for every `x` (NaN included)
 /// and finite `a`, `b` in either order, the result is finite, inside the
 /// closed interval they span, and `x` itself when `x` is inside.
-pub fn clamp_between<S: Sym>() -> B {
+pub fn clamp_between<S: Sym>() -> Vec<B> {
     let (x, a, b) = (S::var("x"), S::var("a"), S::var("b"));
     a.t_finite().and(b.t_finite()).assume();
     let y = x.clamp_between(a, b);
     let inside = |v: S| (a.t_le(v).and(v.t_le(b))).or(b.t_le(v).and(v.t_le(a)));
-    B::all(&[y.t_finite(), inside(y), x.t_finite().and(inside(x)).implies(y.t_eq(x))])
+    vec![y.t_finite(), inside(y), x.t_finite().and(inside(x)).implies(y.t_eq(x))]
 }
 
 /// The control law's constants for joint `j`.
@@ -62,18 +62,13 @@ pub fn control_constants<S: Sym>(j: usize) -> (S, S, S) {
 /// and the deadband: for every set-point, feed-forward and estimate (NaN
 /// and infinities included) the output is finite and `|v| <= vmax`; any
 /// non-finite input gives `ok == false`; `!ok` gives exactly `+0`.
-pub fn control<S: Sym>(j: usize) -> B {
+pub fn control<S: Sym>(j: usize) -> Vec<B> {
     let (kp, vmax, deadband) = control_constants::<S>(j);
     let (sp, ff, x) = (S::var("setpoint"), S::var("feed_forward"), S::var("estimate"));
     let (v, ok) = control_law(sp, ff, x, kp, vmax, deadband);
     let ok = if ok { B::TRUE } else { B::FALSE };
     let inputs_finite = B::all(&[sp.t_finite(), ff.t_finite(), x.t_finite()]);
-    B::all(&[
-        v.t_finite(),
-        v.abs().t_le(vmax),
-        inputs_finite.not().implies(ok.not()),
-        ok.not().implies(v.t_same(S::ZERO)),
-    ])
+    vec![v.t_finite(), v.abs().t_le(vmax), inputs_finite.not().implies(ok.not()), ok.not().implies(v.t_same(S::ZERO))]
 }
 
 /// The observer gains `Params::new` builds.
@@ -98,7 +93,7 @@ fn plausible<S: Sym>(x: S, v: S) -> B {
 /// velocity bound (as the Kani harness states it). With `all_inputs`
 /// (fixed point: no bound at all, every bit pattern) the precondition is
 /// dropped.
-pub fn observer_between<S: Sym>(slack: f32, all_inputs: bool) -> B {
+pub fn observer_between<S: Sym>(slack: f32, all_inputs: bool) -> Vec<B> {
     let g = gains::<S>();
     let (x, v, z) = (S::var("x"), S::var("v"), S::var("z"));
     if !all_inputs {
@@ -109,13 +104,13 @@ pub fn observer_between<S: Sym>(slack: f32, all_inputs: bool) -> B {
     o.step(z, &g);
     let slack = S::from_f32(slack);
     let (lo, hi) = (xp.min(z).minus(slack), xp.max(z).plus(slack));
-    B::all(&[o.x.t_finite(), o.v.t_finite(), lo.t_le(o.x), o.x.t_le(hi)])
+    vec![o.x.t_finite(), o.v.t_finite(), lo.t_le(o.x), o.x.t_le(hi)]
 }
 
 /// `AlphaBeta::step` and `coast` never absorb a NaN or an infinity: for
 /// every input, if any of `x`, `v`, `z` is not finite then the new `x` or
 /// `v` is not (so the kernel's plausibility check sees it).
-pub fn observer_non_finite<S: Sym>(coast: bool) -> B {
+pub fn observer_non_finite<S: Sym>(coast: bool) -> Vec<B> {
     let g = gains::<S>();
     let (x, v, z) = (S::var("x"), S::var("v"), S::var("z"));
     let mut o = AlphaBeta { x, v };
@@ -126,35 +121,38 @@ pub fn observer_non_finite<S: Sym>(coast: bool) -> B {
         o.step(z, &g);
         B::all(&[x.t_finite(), v.t_finite(), z.t_finite()]).not()
     };
-    bad.implies(o.x.t_finite().and(o.v.t_finite()).not())
+    vec![bad.implies(o.x.t_finite().and(o.v.t_finite()).not())]
 }
 
 /// `AlphaBeta::coast`: from a plausible state the prediction is finite,
 /// keeps the velocity bit for bit, and moves the position by at most
 /// 64 rad/s times one tick (plus `slack` for rounding).
-pub fn observer_coast<S: Sym>(slack: f32) -> B {
+pub fn observer_coast<S: Sym>(slack: f32) -> Vec<B> {
     let g = gains::<S>();
     let (x, v) = (S::var("x"), S::var("v"));
     plausible(x, v).assume();
     let mut o = AlphaBeta { x, v };
     o.coast(&g);
     let bound = S::from_f32(64.0).times(g.dt).plus(S::from_f32(slack));
-    B::all(&[o.x.t_finite(), o.v.t_same(v), o.x.minus(x).abs().t_le(bound)])
+    vec![o.x.t_finite(), o.v.t_same(v), o.x.minus(x).abs().t_le(bound)]
 }
 
-/// Joint `j`'s interpolator profile, built by the kernel's own `profile`.
+/// Joint `j`'s set-point profile, built as `Params::new` builds it (the
+/// kernel's own `profile` at the joint's `setpoint_acceleration`).
 pub fn joint_profile<S: Scalar>(j: usize) -> Profile<S> {
     let jc = &CONFIG.joints[j];
-    profile::<S>(jc.max_velocity, jc.max_acceleration, CONFIG.tick_hz)
+    profile::<S>(jc.max_velocity, jc.setpoint_acceleration(), CONFIG.tick_hz)
 }
 
 /// One `Interpolator::advance` from any state with set-point and target
 /// in +-16 rad, velocity within the speed limit and cruising speed in
-/// `[0, vmax]` (every segment length's cruising speed): the new velocity
-/// is within `vmax + slack`, changes by at most `dv + slack`, and a
-/// set-point approaching its target never passes it. The statement and
-/// the slack are `proofs/src/numeric.rs`'s `interpolator` (Kani harness).
-pub fn interpolator<S: Sym>(j: usize) -> B {
+/// `[0, vmax]` (every segment length's cruising speed): the new state is
+/// finite, the new velocity is within `vmax + slack` and changes by at most
+/// `dv + slack`; with `never_passes` instead: a set-point approaching a
+/// target it can stop at (the braking distance from its speed plus one
+/// tick's travel inside the distance left, or at rest) never passes it. The statement and the slack
+/// are `proofs/src/numeric.rs`'s `interpolator` (the Kani harness).
+pub fn interpolator<S: Sym>(j: usize, never_passes: bool) -> Vec<B> {
     let k = joint_profile::<S>(j);
     let lim = S::from_f32(16.0);
     let (sp, to, vel, speed) = (S::var("setpoint"), S::var("target"), S::var("velocity"), S::var("speed"));
@@ -168,14 +166,19 @@ pub fn interpolator<S: Sym>(j: usize) -> B {
     let mut it = Interpolator::from_parts(sp, to, vel, speed);
     let (sp2, vel2) = it.advance(&k);
     let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
+    let dist = to.minus(sp).abs();
     let approaching = B::all(&[to.t_gt(sp), vel.t_ge(S::ZERO)])
         .or(B::all(&[to.t_lt(sp), vel.t_le(S::ZERO)]))
         .or(B::all(&[to.t_eq(sp), vel.t_eq(S::ZERO)]));
-    B::all(&[
-        sp2.t_finite(),
-        vel2.t_finite(),
-        vel2.abs().t_le(k.vmax.plus(slack)),
-        vel2.minus(vel).abs().t_le(k.dv.plus(slack)),
-        approaching.implies(sp2.minus(sp).abs().t_le(to.minus(sp).abs())),
-    ])
+    let reach = vel.times(vel).times(k.inv_2a).plus(vel.abs().times(k.dt)).plus(k.eps).t_le(dist);
+    if never_passes {
+        vec![approaching.and(reach.or(vel.t_eq(S::ZERO))).implies(sp2.minus(sp).abs().t_le(dist))]
+    } else {
+        vec![
+            sp2.t_finite(),
+            vel2.t_finite(),
+            vel2.abs().t_le(k.vmax.plus(slack)),
+            vel2.minus(vel).abs().t_le(k.dv.plus(slack)),
+        ]
+    }
 }
