@@ -78,6 +78,10 @@ struct Node {
     cmd: String,
     /// The nodes its definition refers to (all with smaller ids).
     deps: Vec<u32>,
+    /// Depends on no input (a constant).
+    ground: bool,
+    /// Its cone contains a product of two non-constant terms.
+    nonlinear: bool,
 }
 
 /// The node ids a term's text refers to (`t<digits>` tokens).
@@ -175,8 +179,11 @@ impl Ctx {
         let id = u32::try_from(self.nodes.len()).expect("fewer than 2^32 terms");
         let deps = refs(&text);
         debug_assert!(deps.iter().all(|&d| d < id));
+        let node = |d: &u32| self.nodes.get(*d as usize).expect("a node of this context");
+        let ground = deps.iter().all(|d| node(d).ground);
+        let nonlinear = deps.iter().any(|d| node(d).nonlinear);
         let cmd = format!("(define-fun {} () {} {})", name(id), sort.smt(), text);
-        self.nodes.push(Node { sort, cmd, deps });
+        self.nodes.push(Node { sort, cmd, deps, ground, nonlinear });
         self.cons.insert((sort, text), id);
         id
     }
@@ -188,7 +195,7 @@ impl Ctx {
         }
         let id = u32::try_from(self.nodes.len()).expect("fewer than 2^32 terms");
         let cmd = format!("(declare-const {} {})", name(id), sort.smt());
-        self.nodes.push(Node { sort, cmd, deps: Vec::new() });
+        self.nodes.push(Node { sort, cmd, deps: Vec::new(), ground: false, nonlinear: false });
         self.cons.insert(key, id);
         if !label.starts_with("choice ") {
             self.vars.push((label.to_string(), id));
@@ -214,18 +221,63 @@ impl Ctx {
         }
     }
 
-    /// Satisfiability of the path condition plus `extra`.
+    /// Marks node `id` (a product of `a` and `b`) nonlinear if neither
+    /// factor is a constant.
+    fn mark_product(&mut self, id: u32, a: u32, b: u32) {
+        let ground = |c: &Ctx, i: u32| c.nodes.get(i as usize).map(|n| n.ground).expect("a node of this context");
+        if !ground(self, a) && !ground(self, b) {
+            if let Some(n) = self.nodes.get_mut(id as usize) {
+                n.nonlinear = true;
+            }
+        }
+    }
+
+    /// Satisfiability of the path condition plus `extra`, first with the
+    /// path condition's literals free of nonlinear products only (a
+    /// weaker formula: if it is unsatisfiable, so is the whole; z3 decides
+    /// it much faster), then, if that is not conclusive, with all of it.
     fn check_with(&mut self, extra: Option<(u32, bool)>, timeout_ms: u32) -> Sat {
+        let linear: Vec<(u32, bool)> = self
+            .explorer
+            .lits
+            .iter()
+            .copied()
+            .filter(|l| !self.nodes.get(l.0 as usize).is_some_and(|n| n.nonlinear))
+            .collect();
+        if linear.len() < self.explorer.lits.len() {
+            let mut lits = linear;
+            lits.extend(extra);
+            if self.check_lits(&lits, timeout_ms.min(LINEAR_TIMEOUT_MS)) == Sat::Unsat {
+                return Sat::Unsat;
+            }
+        }
         let mut lits = self.explorer.lits.clone();
         lits.extend(extra);
+        self.check_lits(&lits, timeout_ms)
+    }
+
+    fn check_lits(&mut self, lits: &[(u32, bool)], timeout_ms: u32) -> Sat {
         let ids: Vec<u32> = lits.iter().map(|l| l.0).chain(self.vars.iter().map(|v| v.1)).collect();
         self.load(&ids);
-        for &(id, v) in &lits {
+        for &(id, v) in lits {
             self.z3.send(&format!("(assert {})", literal(id, v)));
         }
-        self.z3.check(timeout_ms)
+        let t0 = Instant::now();
+        let r = self.z3.check(timeout_ms);
+        if std::env::var_os("SMT_VERBOSE").is_some() {
+            let (paths, depth) = (self.explorer.pending.len(), self.explorer.decisions.len());
+            eprintln!(
+                "    check: {r:?} in {:.2} s ({} literals, depth {depth}, {paths} pending)",
+                t0.elapsed().as_secs_f64(),
+                lits.len()
+            );
+        }
+        r
     }
 }
+
+/// Timeout of the first, weaker check of [`Ctx::check_with`].
+const LINEAR_TIMEOUT_MS: u32 = 10_000;
 
 /// Runs `f` with a fresh context (and z3 process) on this thread.
 pub fn session<R>(f: impl FnOnce() -> R) -> R {
@@ -252,6 +304,17 @@ pub fn sort_of(id: u32) -> Sort {
 /// The hash-consed node for `text` of sort `sort`.
 pub fn term(sort: Sort, text: String) -> u32 {
     with(|c| c.term(sort, text))
+}
+
+/// The hash-consed node for the product `text` of nodes `a` and `b`
+/// (tracked: path conditions with products of two inputs are checked
+/// last, see [`Ctx::check_with`]).
+pub fn product(sort: Sort, text: String, a: u32, b: u32) -> u32 {
+    with(|c| {
+        let id = c.term(sort, text);
+        c.mark_product(id, a, b);
+        id
+    })
 }
 
 /// An input of the proof: an unconstrained constant (every bit pattern).

@@ -215,7 +215,7 @@ impl Scalar for SymF32 {
         SymF32::op(format!("(fp.sub RNE {} {})", name(self.0), name(rhs.0)))
     }
     fn times(self, rhs: Self) -> Self {
-        SymF32::op(format!("(fp.mul RNE {} {})", name(self.0), name(rhs.0)))
+        SymF32(ctx::product(Sort::F32, format!("(fp.mul RNE {} {})", name(self.0), name(rhs.0)), self.0, rhs.0))
     }
     fn times_int(self, n: i32) -> Self {
         // `self * n as f32`: the conversion is Rust's, on a constant.
@@ -344,11 +344,12 @@ impl Scalar for SymFx {
     /// bits (|a b| <= 2^62), an arithmetic shift by 24, a range check.
     fn times(self, rhs: Self) -> Self {
         let (a, b) = (name(self.0), name(rhs.0));
-        SymFx::op(format!(
+        let text = format!(
             "(let ((q (bvashr (bvmul ((_ sign_extend 32) {a}) ((_ sign_extend 32) {b})) #x0000000000000018))) \
              (ite (and (bvsle q #x000000007fffffff) (bvsge q #xffffffff80000000)) ((_ extract 31 0) q) \
              (ite (xor (bvslt {a} #x00000000) (bvslt {b} #x00000000)) {MIN} {MAX})))"
-        ))
+        );
+        SymFx(ctx::product(Sort::Bv32, text, self.0, rhs.0))
     }
     /// `saturating_mul_int`: `i32::overflowing_mul` of the bits; on
     /// overflow MIN if the signs differ, else MAX.
