@@ -61,6 +61,7 @@ if [ "${QUICK:-0}" != "1" ]; then
 
     step "model check (stateright, every reachable state of Kernel<Fx>)"
     cargo run -p model --release --locked
+    proofs/model/mutants.sh
 
     step "fuzz framer + parser (bounded, 30 s)"
     protocol/fuzz/run.sh 30

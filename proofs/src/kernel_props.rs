@@ -4,10 +4,15 @@
 use crate::numeric::{any_mostly_in, any_target};
 use crate::setup::{here, operational, still, target, Checked, Sym, COUNTS, PROOF_CONFIG};
 use kernel::config::AXES;
-use kernel::{EncoderSample, Event, Fx, HardwareFault, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput};
+use kernel::homing::Phase;
+use kernel::{
+    EncoderSample, Event, FaultReason, Fx, HardwareFault, Reject, Request, RequestKind, Scalar, Sense, State,
+    TickOutput,
+};
 
 /// Sensors that may differ from the stationary arm in any way: a count may
 /// be lost, jump, or move a little; switches and hardware faults are free.
+#[cfg_attr(not(kani), kani::loops)]
 fn any_sense() -> Sense {
     // Half of the samples are the clean stationary arm; symbolically this is
     // still every sensor combination.
@@ -51,6 +56,8 @@ fn operational_tick<S: Sym>() {
     kani::cover!(o.status.state == State::Fault, "a fault");
     kani::cover!(o.status.state == State::Operational, "still operational");
     // SR-10, SR-21: a pressed switch or a hardware fault in Operational faults.
+    kani::cover!(sense.limits & 0x3f != 0, "a switch pressed (SR-10 antecedent)");
+    kani::cover!(sense.hardware_fault.is_some(), "a hardware fault (SR-21 antecedent)");
     if sense.limits & 0x3f != 0 || sense.hardware_fault.is_some() {
         assert!(o.status.state == State::Fault);
     }
@@ -65,19 +72,28 @@ fn operational_tick<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)] // setup homing loop (40 ticks); kernel loops are 6 axes
+#[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; kernel, monitor and any_sense: 6 axes (7)
 fn operational_tick_is_safe_f32() {
     operational_tick::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as the f32 harness
 fn operational_tick_is_safe_fx() {
     operational_tick::<Fx>();
 }
 
-/// SR-1, SR-13, SR-15, SR-16: from power-on, any short sequence of requests
-/// and sensors: nothing moves unhomed; motion is refused outside
-/// Operational; in homing, only axes whose dependencies are homed move.
+/// Ticks [`from_power_on`] runs after the first: one to start homing and
+/// the seven J6 needs on the stationary arm (`setup::HOMING_TICKS` / 3),
+/// then two in which the second group (J5, J4) moves, so the homing-order
+/// assertion sees an axis that depends on another.
+const POWER_ON_TICKS: u32 = 10;
+
+/// SR-1, SR-13, SR-15, SR-16: from power-on, any sequence of
+/// [`POWER_ON_TICKS`] requests and sensors: nothing moves unhomed; motion is
+/// refused outside Operational; in homing, only axes whose dependencies are
+/// homed move (the monitor's check, with its own copy of the seed's order),
+/// and the run reaches the second group.
+#[cfg_attr(not(kani), kani::loops)]
 fn from_power_on<S: Sym>() {
     let (mut k, auth) = Checked::<S>::new();
     // First tick: any valid readings (nothing moves at power-on).
@@ -87,36 +103,57 @@ fn from_power_on<S: Sym>() {
     }
     let o = k.tick(&first, None);
     assert!(all_zero(&o));
-    // Six more ticks (bound: the loop below), each with any request.
-    for _ in 0..6 {
+    // SR-1: each observer starts at rest, at its first reading.
+    kani::cover!(o.status.state == State::Unhomed, "booted on the first tick");
+    for i in 0..AXES {
+        if let EncoderSample::Count(c) = first.encoders[i] {
+            let j = &PROOF_CONFIG.joints[i];
+            let expect = S::from_counts(i32::from(c), S::wide_from_f64(j.rad_per_count()));
+            assert!(o.status.position[i] == expect && o.status.velocity[i] == S::ZERO);
+        }
+    }
+    let mut second_group_moved = false;
+    for n in 0..POWER_ON_TICKS {
         let before = k.state();
-        let req = match kani::any::<u8>() % 5 {
+        // Mostly a home request on the first of these ticks, so the run can
+        // get far; symbolically any request on every tick.
+        let pick = if n == 0 && kani::any() { 0 } else { kani::any::<u8>() % 5 };
+        let req = match pick {
             0 => Some(Request::Home),
             1 => Some(Request::HomeJoint(kani::any())),
             2 => Some(Request::Enable(auth.enable())),
-            3 => Some(Request::Motion(any_target::<S>())),
+            3 => Some(Request::Motion(crate::numeric::any_target::<S>())),
             _ => None,
         };
         let motion = matches!(req, Some(Request::Motion(_)));
-        // The monitor checks the homing order (SR-13, its own copy of the
-        // seed's order) and that only homing axes move (SR-16).
+        // Switches: mostly exactly those of the seeking axes (homing can
+        // proceed), otherwise any; symbolically any value on every tick.
+        let mut seeking = 0u8;
+        for (i, p) in k.homing_phases().iter().enumerate() {
+            if matches!(p, Phase::FastSeek | Phase::SlowSeek) {
+                seeking |= 1 << i;
+            }
+        }
+        first.limits = if !kani::any::<u8>().is_multiple_of(8) { seeking } else { kani::any() };
         let o = k.tick(&first, req);
+        kani::cover!(motion && before != State::Operational, "motion outside Operational (antecedent)");
         if motion && before != State::Operational {
             assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. })));
         }
         kani::cover!(o.status.state == State::Homing, "homing reached");
-        // Switch inputs change freely between ticks.
-        first.limits = kani::any();
+        let phases = k.homing_phases();
+        second_group_moved |= o.status.state == State::Homing && (phases[3].is_moving() || phases[4].is_moving());
     }
+    kani::cover!(second_group_moved, "an axis of the second homing group moved (after J6 homed)");
 }
 
 #[kani::proof]
-#[kani::unwind(8)] // six ticks in this harness, six axes in the kernel
+#[kani::unwind(11)] // POWER_ON_TICKS = 10 ticks; kernel, monitor and the encoder loops: 6 axes (7)
 fn nothing_moves_unless_homed_and_homing_order_holds_f32() {
     from_power_on::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(8)]
+#[kani::unwind(11)] // as the f32 harness
 fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
     from_power_on::<Fx>();
 }
@@ -126,6 +163,7 @@ fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
 /// starts (speeds never increase nor reverse, every axis exactly zero within
 /// the ramp) and the stop latches; if every joint is already at rest at its
 /// target, it holds (no latch) and the next command is taken.
+#[cfg_attr(not(kani), kani::loops)]
 fn soft_stop<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let p = here(&mut k);
@@ -181,12 +219,12 @@ fn soft_stop<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)] // setup homing loop; 12 ticks here
+#[kani::unwind(26)] // setup::run_homing: 25 ticks; 12 ticks of silence here; 6 axes
 fn soft_stop_ramps_monotonically_to_zero_and_latches_f32() {
     soft_stop::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as the f32 harness
 fn soft_stop_ramps_monotonically_to_zero_and_latches_fx() {
     soft_stop::<Fx>();
 }
@@ -207,25 +245,33 @@ fn enable<S: Sym>() {
     kani::cover!(o.status.state == State::Fault, "refused");
     kani::cover!(o.status.state != State::Fault, "accepted");
     // The monitor checks the accepted case (SR-6: set-points equal the
-    // positions, timeout disarmed, no cause in the sensors).
+    // positions, timeout disarmed, no cause in the sensors); stated here too.
+    kani::cover!(cause, "a cause present (antecedent)");
     if cause {
         assert!(o.status.state == State::Fault);
+    }
+    if o.status.state != State::Fault {
+        assert!(!o.status.timeout_armed);
+        for i in 0..AXES {
+            assert!(o.status.setpoint[i] == o.status.position[i]);
+        }
     }
 }
 
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // setup::run_homing: 25 ticks; any_sense, kernel, monitor: 6 axes
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
     enable::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as the f32 harness
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {
     enable::<Fx>();
 }
 
 /// SR-11: up to `encoder_invalid_limit` lost samples in a row are ridden
 /// through; one more faults every axis.
+#[cfg_attr(not(kani), kani::loops)]
 fn encoder_loss<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let axis = usize::from(kani::any::<u8>() % AXES as u8);
@@ -243,12 +289,12 @@ fn encoder_loss<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // setup::run_homing: 25 ticks; encoder_invalid_limit (2) ticks here; 6 axes
 fn encoder_loss_beyond_the_tolerance_faults_f32() {
     encoder_loss::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as the f32 harness
 fn encoder_loss_beyond_the_tolerance_faults_fx() {
     encoder_loss::<Fx>();
 }
@@ -265,12 +311,64 @@ fn rehome<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // setup::run_homing, twice: 25 ticks per entry; 6 axes
 fn homing_is_repeatable_f32() {
     rehome::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as the f32 harness
 fn homing_is_repeatable_fx() {
     rehome::<Fx>();
+}
+
+/// Ticks [`runaway`] drives one encoder: enough for the observer's estimate
+/// to pass the runaway threshold at the largest plausible step per tick
+/// (measured: J1 crosses 3.75 rad/s in about 15 ticks at 55 counts/tick).
+const RUNAWAY_TICKS: u32 = 30;
+
+/// SR-9: one joint's encoder advances by a constant step per tick, any step
+/// up to the plausibility window (so the estimate follows it rather than
+/// faulting as a jump): in every tick whose estimated speed is above the
+/// runaway threshold, the kernel is in Fault. The cover shows the threshold
+/// is reached and the fault is a runaway.
+#[cfg_attr(not(kani), kani::loops)]
+fn runaway<S: Sym>() {
+    let (mut k, _) = operational::<S>();
+    let axis = usize::from(kani::any::<u8>() % AXES as u8);
+    let j = &PROOF_CONFIG.joints[axis];
+    let window = j.max_jump_counts(PROOF_CONFIG.tick_hz);
+    // Any step in -window..=window (u8 draws clamped: every value reachable,
+    // the largest often).
+    let step = i32::from(kani::any::<u8>()).min(window);
+    let step = if kani::any() { step } else { -step };
+    let runaway = S::from_f32(j.runaway_velocity);
+    let mut s = still(0);
+    let mut count = i32::from(COUNTS[axis]);
+    let mut fired = false;
+    for _ in 0..RUNAWAY_TICKS {
+        count = (count + step).rem_euclid(4096);
+        s.encoders[axis] = EncoderSample::Count(count as u16);
+        let o = k.tick(&s, None);
+        let fast = o.status.velocity[axis].abs() > runaway;
+        kani::cover!(fast, "estimate above the runaway threshold (antecedent)");
+        if fast {
+            assert!(o.status.state == State::Fault);
+        }
+        fired |= matches!(o.status.fault.map(|f| f.reason), Some(FaultReason::Runaway { .. }));
+        if o.status.state == State::Fault {
+            break; // latched; nothing further to see
+        }
+    }
+    kani::cover!(fired, "a runaway fault");
+}
+
+#[kani::proof]
+#[kani::unwind(31)] // RUNAWAY_TICKS = 30 (setup::run_homing: 21); 6 axes
+fn runaway_faults_when_the_estimate_exceeds_the_threshold_f32() {
+    runaway::<f32>();
+}
+#[kani::proof]
+#[kani::unwind(31)] // as the f32 harness
+fn runaway_faults_when_the_estimate_exceeds_the_threshold_fx() {
+    runaway::<Fx>();
 }

@@ -8,10 +8,15 @@
 //!
 //! Harness names end in `_f32` or `_fx`: one per numeric variant.
 //!
-//! Unwind bounds: the kernel's own loops run over the six axes (`iter()` over
-//! `[_; 6]`: 7 iterations including the exit test) and the three homing
-//! groups; the harnesses' own loops are over ticks and say their bound where
-//! they are written. `#[kani::unwind(n)]` is the largest of these plus one.
+//! Unwind bounds: Kani's `#[kani::unwind(n)]` lets every loop run at most
+//! n - 1 iterations per entry. The code under test's loops run over the six
+//! axes, the three homing groups or the tick's events (`setup::KERNEL_UNWIND`,
+//! 7, checked by the source scan `tests/loops.rs`); the harnesses' own loops
+//! are over ticks and say their bound where they are written. Each
+//! `#[kani::unwind(n)]` is the largest of these plus one, with its reason in
+//! a comment. The shim enforces the bound on every loop of the harnesses
+//! and their helpers (`#[cfg_attr(not(kani), kani::loops)]`) and requires
+//! `KERNEL_UNWIND` of every harness that runs a tick.
 
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
@@ -23,5 +28,7 @@ mod kernel_props;
 mod motion_props;
 #[cfg(any(kani, test))]
 mod numeric;
+#[cfg(all(test, not(kani)))]
+mod shim_checks;
 #[cfg(any(kani, test))]
 mod wire;

@@ -10,6 +10,7 @@ use kernel::{Authority, Event, Fx, Reject, Request, State, StopCause};
 
 /// An operational kernel with every set-point moving toward a target up to
 /// 0.1 rad away (a valid stream sample).
+#[cfg_attr(not(kani), kani::loops)]
 fn moving<S: Sym>() -> (Checked<S>, Authority) {
     let (mut k, a) = operational::<S>();
     let p = here(&mut k);
@@ -29,6 +30,7 @@ fn moving<S: Sym>() -> (Checked<S>, Authority) {
 /// the latch: `<HOME>`, `<HOMEn>` for any n, and any motion target are
 /// refused, whatever the sensors say (a new cause may turn SoftEstop into
 /// Fault, never into anything else).
+#[cfg_attr(not(kani), kani::loops)]
 fn only_enable_clears<S: Sym>() {
     let (mut k, _) = moving::<S>();
     let to_fault: bool = kani::any();
@@ -60,12 +62,12 @@ fn only_enable_clears<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)] // setup: homing loop of at most 40 ticks
+#[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; 8 ticks here; 6 axes
 fn only_enable_clears_a_latch_f32() {
     only_enable_clears::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as above
 fn only_enable_clears_a_latch_fx() {
     only_enable_clears::<Fx>();
 }
@@ -73,6 +75,7 @@ fn only_enable_clears_a_latch_fx() {
 /// SR-31: the host link lost while the arm moves starts the soft stop in
 /// the same tick (`SOFT_ESTOP LINK_LOST`), whatever request comes with it;
 /// the stop latches.
+#[cfg_attr(not(kani), kani::loops)]
 fn link_loss<S: Sym>() {
     let (mut k, _) = moving::<S>();
     let extra: u8 = kani::any::<u8>() % 2;
@@ -96,12 +99,12 @@ fn link_loss<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as above
 fn link_loss_while_moving_soft_stops_at_once_f32() {
     link_loss::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as above
 fn link_loss_while_moving_soft_stops_at_once_fx() {
     link_loss::<Fx>();
 }
@@ -109,6 +112,7 @@ fn link_loss_while_moving_soft_stops_at_once_fx() {
 /// SR-14: `<HOME>` while the arm moves is not a step into homing: the arm
 /// stops first (Stopping, `HOMING_QUEUED stopping first`), then homing
 /// starts when the ramp ends; no latch on the way.
+#[cfg_attr(not(kani), kani::loops)]
 fn home_while_moving<S: Sym>() {
     let (mut k, _) = moving::<S>();
     let o = k.tick(&still(0), Some(Request::Home));
@@ -128,12 +132,12 @@ fn home_while_moving<S: Sym>() {
 }
 
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as above
 fn home_while_moving_stops_first_f32() {
     home_while_moving::<f32>();
 }
 #[kani::proof]
-#[kani::unwind(41)]
+#[kani::unwind(26)] // as above
 fn home_while_moving_stops_first_fx() {
     home_while_moving::<Fx>();
 }

@@ -18,9 +18,16 @@ use kernel::homing::Phase;
 use kernel::{Authority, EncoderSample, Kernel, MotionKind, MotionTarget, Request, Scalar, Sense, State, TickOutput};
 use monitor::{Monitor, Sent};
 
-/// `PAROL6` with zero homing back-off, switches 0.01 rad inside the limits,
-/// and times short enough for a harness: command timeout 3 ms, soft-stop
-/// ramp 4 ms, homing 40 ms per axis, homing settle 1 ms.
+/// `PAROL6` with zero homing back-off, switches 0.01 rad inside the limits
+/// (the stationary arm homes inside them, so every position it reports is
+/// a valid target), and times short enough for a harness: command timeout
+/// 3 ms, soft-stop ramp 4 ms, homing 40 ms per axis, homing settle 1 ms.
+///
+/// This is a **relaxation**: `kernel::config::check` rejects it, for exactly
+/// the rules in [`PROOF_RELAXATIONS`] (a test restores those fields from
+/// `PAROL6` and gets a configuration `check` accepts, and shows each
+/// relaxation alone fails with its listed rule). The command timeout, ramp,
+/// switch positions and settle time are changed within the rules.
 pub const PROOF_CONFIG: ArmConfig = {
     let mut c = PAROL6;
     let mut i = 0;
@@ -38,15 +45,63 @@ pub const PROOF_CONFIG: ArmConfig = {
         i += 1;
     }
     c.command_timeout_ms = 3;
+    // Segments shorter than the command timeout (a rule of `check`).
+    c.segment_min_ms = 1;
+    c.segment_max_ms = 2;
     c.soft_stop_ms = 4;
     c.homing_settle_ms = 1;
     c
 };
 
-/// [`PROOF_CONFIG`] as the kernel takes it. It fails `config::check` (zero
-/// back-off, homing and ramp times too short for the real arm), so it is a
-/// documented relaxation (`Validated::relaxed`, feature `relaxed-config`).
+/// [`PROOF_CONFIG`] as the kernel takes it: a documented relaxation
+/// (`Validated::relaxed`, feature `relaxed-config`; see above).
 pub const PROOF_VALIDATED: Validated = Validated::relaxed(PROOF_CONFIG);
+
+/// What [`PROOF_CONFIG`] relaxes of `kernel::config::check`: (field, the
+/// rule it breaks, why). Checked by `tests::proof_config_relaxes_exactly_the_named_rules`.
+pub const PROOF_RELAXATIONS: [(&str, &str, &str); 3] = [
+    (
+        "joints[*].homing.backoff = 0",
+        "homing back-off must be in (0, 0.5) rad",
+        "the arm is stationary: a back-off distance > 0 is never travelled, so homing could not finish",
+    ),
+    (
+        "joints[*].homing.timeout_ms = 40",
+        "homing timeout shorter than 1.2x the nominal homing time: homing is impossible",
+        "the nominal time is seconds of travel over the whole range; a stationary arm homes in ticks",
+    ),
+    (
+        "soft_stop_ms = 4",
+        "soft-stop ramp decelerates faster than max_acceleration",
+        "a harness cannot run 100 ticks of ramp; the ramp's shape (v0 (N-k)/N) does not depend on N",
+    ),
+];
+
+/// The largest unwind the code under test needs per tick: every loop of
+/// `kernel/src` and `monitor/src` runs over the six axes (7), the three
+/// homing groups (4) or the tick's events (at most 4: 5); listed and checked
+/// by the source scan `proofs/tests/loops.rs`. The shim cannot count these
+/// loops (it only instruments the proofs crate), so every harness that runs
+/// a tick declares it through [`kernel_loops`].
+///
+/// (`Params::new`'s 65-entry reciprocal table, which needed unwind 66 in
+/// `Kernel::new`, is gone: a segment's 1/n is a division per accepted
+/// target.)
+pub const KERNEL_UNWIND: u32 = 7;
+
+/// Declares the code under test's loops to the shim (see [`KERNEL_UNWIND`]).
+#[inline(always)]
+pub fn kernel_loops() {
+    #[cfg(not(kani))]
+    kani::runner::needs_unwind(KERNEL_UNWIND, "the kernel's and monitor's per-axis loops (proofs/tests/loops.rs)");
+}
+
+/// A kernel for `config` and its authority: the one place the proofs and
+/// the model construct a kernel.
+pub fn new_kernel<S: Scalar>(config: &Validated) -> (Kernel<S>, Authority) {
+    kernel_loops();
+    Kernel::new(config)
+}
 
 /// The seed's homing order (FIRMWARE_DEVELOPER_GUIDE.md section 6: J6; then
 /// J5 and J4; then J1, J2, J3), written out in the monitor independently of
@@ -63,17 +118,22 @@ pub fn still(limits: u8) -> Sense {
 
 /// A scalar the harnesses can draw symbolically.
 pub trait Sym: Scalar {
+    /// The type has non-finite values (NaN, infinities): antecedents about
+    /// them are reachable (f32) or vacuous by construction (fixed point).
+    const HAS_NON_FINITE: bool;
     /// Any bit pattern.
     fn any() -> Self;
 }
 
 impl Sym for f32 {
+    const HAS_NON_FINITE: bool = true;
     fn any() -> Self {
         kani::any()
     }
 }
 
 impl Sym for kernel::Fx {
+    const HAS_NON_FINITE: bool = false;
     fn any() -> Self {
         kernel::Fx::from_bits(kani::any())
     }
@@ -92,12 +152,13 @@ impl<S: Scalar> Checked<S> {
     /// A fresh kernel with [`PROOF_CONFIG`] (state Boot), its monitor and
     /// its authority.
     pub fn new() -> (Self, Authority) {
-        let (k, a) = Kernel::new(&PROOF_VALIDATED);
+        let (k, a) = new_kernel(&PROOF_VALIDATED);
         (Checked { k, mon: Monitor::new(&PROOF_CONFIG) }, a)
     }
 
     /// One kernel tick, checked by the monitor.
     pub fn tick(&mut self, sense: &Sense, request: Option<Request<S>>) -> TickOutput<S> {
+        kernel_loops();
         let sent = request.as_ref().map(Sent::of);
         let o = self.k.tick(sense, request);
         let r = self.mon.check(sense, sent.as_ref(), &o, Some(&self.k.homing_phases()), None);
@@ -120,10 +181,18 @@ pub fn unhomed<S: Scalar>() -> (Checked<S>, Authority) {
     (k, a)
 }
 
-/// Runs homing to completion by pressing the switch of every seeking axis.
-/// At most 40 ticks (three groups of at most 7 ticks each, plus margin).
+/// Ticks a whole homing run takes on the stationary arm with
+/// [`PROOF_CONFIG`] when every seeking axis finds its switch at once (one
+/// tick of rest before the run, then per group 8 ticks: fast seek, switch,
+/// back-off, slow seek, switch, release, settle, done;
+/// measured by `tests::homing_takes_exactly_homing_ticks`).
+pub const HOMING_TICKS: u32 = 25;
+
+/// Runs homing to completion by pressing the switch of every seeking axis:
+/// [`HOMING_TICKS`] ticks, the loop's bound (it stops early otherwise).
+#[cfg_attr(not(kani), kani::loops)]
 pub fn run_homing<S: Scalar>(k: &mut Checked<S>) {
-    for _ in 0..40 {
+    for _ in 0..HOMING_TICKS {
         if k.state() != State::Homing {
             return;
         }
@@ -164,6 +233,68 @@ mod tests {
         for (j, needs) in SEED_DEPENDENCIES.iter().enumerate() {
             assert_eq!(Kernel::<f32>::dependencies(j), *needs, "J{}", j + 1);
         }
+    }
+
+    /// `PROOF_CONFIG` with the relaxed fields restored from `PAROL6`.
+    fn unrelaxed() -> ArmConfig {
+        let mut c = PROOF_CONFIG;
+        for (j, p) in c.joints.iter_mut().zip(PAROL6.joints.iter()) {
+            j.homing.backoff = p.homing.backoff;
+            j.homing.timeout_ms = p.homing.timeout_ms;
+        }
+        c.soft_stop_ms = PAROL6.soft_stop_ms;
+        c
+    }
+
+    #[test]
+    fn proof_config_relaxes_exactly_the_named_rules() {
+        use kernel::config::check;
+        // Everything but the named fields passes the project's own check.
+        assert_eq!(check(&unrelaxed()), Ok(()));
+        // Each relaxation alone breaks exactly its named rule.
+        let mut c = unrelaxed();
+        c.joints.iter_mut().for_each(|j| j.homing.backoff = 0.0);
+        assert_eq!(check(&c), Err(PROOF_RELAXATIONS[0].1));
+        let mut c = unrelaxed();
+        c.joints.iter_mut().for_each(|j| j.homing.timeout_ms = 40);
+        assert_eq!(check(&c), Err(PROOF_RELAXATIONS[1].1));
+        let mut c = unrelaxed();
+        c.soft_stop_ms = 4;
+        assert_eq!(check(&c), Err(PROOF_RELAXATIONS[2].1));
+        // Restoring them gives back PAROL6 but for the in-rule changes
+        // (timers, segments, switch positions, settle time).
+        let mut c = unrelaxed();
+        c.command_timeout_ms = PAROL6.command_timeout_ms;
+        c.segment_min_ms = PAROL6.segment_min_ms;
+        c.segment_max_ms = PAROL6.segment_max_ms;
+        c.homing_settle_ms = PAROL6.homing_settle_ms;
+        for (j, p) in c.joints.iter_mut().zip(PAROL6.joints.iter()) {
+            j.homing.switch_position = p.homing.switch_position;
+        }
+        assert_eq!(c, PAROL6);
+        for (field, rule, why) in PROOF_RELAXATIONS {
+            println!("PROOF_CONFIG relaxes {field}: breaks '{rule}' ({why})");
+        }
+    }
+
+    #[test]
+    fn homing_takes_exactly_homing_ticks() {
+        let (mut k, _) = unhomed::<kernel::Fx>();
+        k.tick(&still(0), Some(Request::Home));
+        let mut n = 0;
+        while k.state() == State::Homing {
+            let mut limits = 0u8;
+            for (i, p) in k.homing_phases().iter().enumerate() {
+                if matches!(p, Phase::FastSeek | Phase::SlowSeek) {
+                    limits |= 1 << i;
+                }
+            }
+            k.tick(&still(limits), None);
+            n += 1;
+            assert!(n < 1000);
+        }
+        assert_eq!(n, HOMING_TICKS, "homing ticks");
+        assert_eq!(k.state(), State::Operational);
     }
 
     #[test]

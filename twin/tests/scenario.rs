@@ -14,9 +14,14 @@
 //! command timeout (SOFT_ESTOP) by as much: 20 ms. Homing amplifies one tick: a switch hit seen one tick
 //! apart during the fast seek (the plants differ: encoder mounting
 //! offsets, the simulator's sampling jitter) moves the slow seek's start by
-//! `fast_speed x 1 ms` and its length by `fast / slow` ms, 40 ms for J6
-//! (2.0 / 0.05 rad/s): 50 ms in all (measured: 1 ms on the short
-//! scenarios, 42 ms on the second homing of `startup-homing`).
+//! `fast_speed x 1 ms` and its length by `fast / slow` ms: 40 ms for J6
+//! (2.0 / 0.05 rad/s), 20 ms for J4/J5 (1.0 / 0.05), 10 ms for J1..J3
+//! (0.5 / 0.05). The groups home one after the other, so a run can end up
+//! to 40 + 20 + 10 = 70 ms apart, and everything timed from its end (a
+//! stream started at homed + t, its HOLDING or SOFT_ESTOP) with it; plus
+//! the 20 ms of the wire: 90 ms in all. (Measured with the issue-12 kernel,
+//! whose homing ramps its speeds: up to 86 ms on the second homing of
+//! `startup-homing`, 53-55 ms on the streams after homing; 42 ms before.)
 //!
 //! Angles: both plants step exactly, but the encoders' phases and the simulator's sampling jitter differ, so homing's
 //! switch hits may differ by a tick at the slow seek speed (0.05 rad/s x
@@ -29,7 +34,7 @@ use sim::runner::{run as sim_run, RunOptions};
 use sim::scenario::{Anchor, Scenario};
 
 /// Event line time tolerance (ms), see the module docs.
-const EVENT_TOL_MS: u64 = 50;
+const EVENT_TOL_MS: u64 = 90;
 /// Final joint angle tolerance (rad), see the module docs.
 const ANGLE_TOL_RAD: f64 = 0.008;
 
@@ -80,6 +85,16 @@ fn compare(file: &str) {
     // joint angles at the end
     let last = rep.trace.last().expect("simulator trace");
     let mut worst_q = 0.0f64;
+    // A USB-only scenario (a pulled cable the firmware sees as a closed
+    // port) runs here on Serial1, where the pull is only silence: in
+    // `cable-pull` the driver's re-activation then re-homes the arm, and the
+    // run ends while homing moves, so the end angles differ by the homing
+    // time offset (above) times the homing speed. Its events are compared;
+    // its end angles are not.
+    if sc.usb_only {
+        eprintln!("{file}: USB-only scenario: end angles not compared on Serial1");
+        return;
+    }
     for i in 0..6 {
         let d = (f64::from(last.q[i]) - tw.q[i]).abs();
         worst_q = worst_q.max(d);

@@ -1,12 +1,19 @@
-//! Exhaustive evidence: every input value of the kernel's per-axis functions,
-//! enumerated on this machine (`cargo run -p exhaustive --release`).
+//! Enumeration of the kernel's per-axis functions on this machine
+//! (`cargo run -p exhaustive --release`), each sweep labelled with what it
+//! covers (VERIFICATION.md reserves "exhaustive" for whole domains):
 //!
-//! Each sweep fixes the parameters that come from the configuration (one
-//! sweep per distinct value among the six joints) and enumerates one 32-bit
-//! input completely: all 2^32 `I8F24` bit patterns, or all 2^32 `f32` bit
-//! patterns (NaNs, infinities, subnormals, both zeros included). Unwrapping
-//! is enumerated over every pair of 12-bit readings. A violation prints the
-//! first counterexample found and the run exits non-zero.
+//! - **exhaustive**: every input of the function. Only unwrapping is swept
+//!   whole: every pair of 12-bit readings.
+//! - **slice**: one argument of a multi-argument function enumerated
+//!   completely (all 2^32 `I8F24` or `f32` bit patterns, NaNs, infinities,
+//!   subnormals and both zeros included) with the others fixed, as each
+//!   sweep's name says: the limit or gains at each distinct configured value,
+//!   the feed-forward and estimate at 0, the observer from rest, the
+//!   interpolator's first step with one segment length. A slice is evidence
+//!   for that slice only; the rest of the domain is sampled (shim, proptests).
+//!
+//! A violation prints the first counterexample found and the run exits
+//! non-zero.
 
 use kernel::config::{AXES, PAROL6};
 use kernel::control::control_law;
@@ -18,6 +25,8 @@ use std::time::Instant;
 
 struct Sweep {
     requirement: &'static str,
+    /// `exhaustive` (the whole domain) or `slice` (see the module doc).
+    scope: &'static str,
     name: String,
     cases: u64,
     counterexample: Option<String>,
@@ -29,13 +38,20 @@ fn all_u32(prop: impl Fn(u32) -> bool + Sync) -> Option<u32> {
     (0..=u32::MAX).into_par_iter().find_any(|b| !prop(*b))
 }
 
-fn sweep(req: &'static str, name: String, cases: u64, f: impl FnOnce() -> Option<String>) -> Sweep {
+fn sweep(
+    req: &'static str,
+    scope: &'static str,
+    name: String,
+    cases: u64,
+    f: impl FnOnce() -> Option<String>,
+) -> Sweep {
     let t = Instant::now();
     let counterexample = f();
-    let s = Sweep { requirement: req, name, cases, counterexample, seconds: t.elapsed().as_secs_f64() };
+    let s = Sweep { requirement: req, scope, name, cases, counterexample, seconds: t.elapsed().as_secs_f64() };
     eprintln!(
-        "  {:<6} {:<58} {:>14} cases  {:>6.1} s  {}",
+        "  {:<6} {:<10} {:<58} {:>14} cases  {:>6.1} s  {}",
         s.requirement,
+        s.scope,
         s.name,
         s.cases,
         s.seconds,
@@ -63,36 +79,49 @@ fn main() {
     eprintln!("exhaustive sweeps ({} threads)", rayon::current_num_threads());
 
     // SR-12: unwrapping over every pair of readings.
-    results.push(sweep("SR-12", "unwrap: every (previous, next) 12-bit reading pair".into(), 4096 * 4096, || {
-        (0u32..4096 * 4096)
-            .into_par_iter()
-            .find_any(|i| {
-                let (a, b) = ((i >> 12) as u16, (i & 0xfff) as u16);
-                let d = wrap_delta(a, b);
-                let mut u = Unwrapper::new(a);
-                u.update(b);
-                !((-2048..=2047).contains(&d)
-                    && (i32::from(a) + d).rem_euclid(4096) == i32::from(b)
-                    && u.total() == i32::from(a) + d
-                    && u.last() == b)
-            })
-            .map(|i| format!("prev {}, next {}", i >> 12, i & 0xfff))
-    }));
+    results.push(sweep(
+        "SR-12",
+        "exhaustive",
+        "unwrap: every (previous, next) 12-bit reading pair".into(),
+        4096 * 4096,
+        || {
+            (0u32..4096 * 4096)
+                .into_par_iter()
+                .find_any(|i| {
+                    let (a, b) = ((i >> 12) as u16, (i & 0xfff) as u16);
+                    let d = wrap_delta(a, b);
+                    let mut u = Unwrapper::new(a);
+                    u.update(b);
+                    !((-2048..=2047).contains(&d)
+                        && (i32::from(a) + d).rem_euclid(4096) == i32::from(b)
+                        && u.total() == i32::from(a) + d
+                        && u.last() == b)
+                })
+                .map(|i| format!("prev {}, next {}", i >> 12, i & 0xfff))
+        },
+    ));
 
     // SR-2, SR-3: saturation, both variants, each distinct max velocity.
     for ((vmax, _), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, 0.0)) {
         let l = Fx::from_f32(vmax);
-        results.push(sweep("SR-2", format!("saturate I8F24 to +-{vmax} (J{joints:?})"), full, || {
-            all_u32(|b| {
-                let x = Fx::from_bits(b as i32);
-                let y = x.saturate(l);
-                Scalar::abs(y) <= l && (y == x || (x > l && y == l) || (x < -l && y == -l))
-            })
-            .map(|b| format!("x bits {b:#010x}"))
-        }));
+        results.push(sweep(
+            "SR-2",
+            "slice",
+            format!("saturate I8F24: every x, limit = {vmax} only (J{joints:?})"),
+            full,
+            || {
+                all_u32(|b| {
+                    let x = Fx::from_bits(b as i32);
+                    let y = x.saturate(l);
+                    Scalar::abs(y) <= l && (y == x || (x > l && y == l) || (x < -l && y == -l))
+                })
+                .map(|b| format!("x bits {b:#010x}"))
+            },
+        ));
         results.push(sweep(
             "SR-2/3",
-            format!("saturate f32 to +-{vmax}, every bit pattern (J{joints:?})"),
+            "slice",
+            format!("saturate f32: every x bit pattern, limit = {vmax} only (J{joints:?})"),
             full,
             || {
                 all_u32(|b| {
@@ -112,7 +141,8 @@ fn main() {
         let (kpx, vx) = (Fx::from_f32(kp), Fx::from_f32(vmax));
         results.push(sweep(
             "SR-2",
-            format!("control law I8F24, every set-point, Kp {kp}, vmax {vmax} (J{joints:?})"),
+            "slice",
+            format!("control law I8F24: every set-point; ff = x = deadband = 0, Kp {kp}, vmax {vmax} (J{joints:?})"),
             full,
             || {
                 all_u32(|b| {
@@ -126,7 +156,8 @@ fn main() {
         ));
         results.push(sweep(
             "SR-2/3",
-            format!("control law f32, every set-point bit pattern, Kp {kp}, vmax {vmax}"),
+            "slice",
+            format!("control law f32: every set-point bit pattern; ff = x = deadband = 0, Kp {kp}, vmax {vmax}"),
             full,
             || {
                 all_u32(|b| {
@@ -149,7 +180,10 @@ fn main() {
         let dv = k.dv;
         results.push(sweep(
             "SR-18",
-            format!("set-point I8F24, first step from rest at 0 toward every target (slice), vmax {vmax} amax {amax} (J{joints:?})"),
+            "slice",
+            format!(
+                "set-point I8F24: first step from rest at 0 toward every target, cruising at vmax {vmax}, amax {amax} (J{joints:?})"
+            ),
             full,
             || {
                 all_u32(|b| {
@@ -171,21 +205,33 @@ fn main() {
         beta_hz: Fx::from_f32(PAROL6.beta() * PAROL6.tick_hz as f32),
         dt: Fx::from_f32(1.0 / PAROL6.tick_hz as f32),
     };
-    results.push(sweep("SR-3", "observer I8F24 step from rest, every measurement".into(), full, || {
-        all_u32(|b| {
-            let z = Fx::from_bits(b as i32);
-            let mut o = AlphaBeta::at(Fx::ZERO);
-            o.step(z, &g);
-            let (lo, hi) = (Ord::min(z, Fx::ZERO), Ord::max(z, Fx::ZERO));
-            o.x >= lo && o.x <= hi && (o.v >= Fx::ZERO) == (z >= Fx::ZERO)
-        })
-        .map(|b| format!("z bits {b:#010x}"))
-    }));
+    results.push(sweep(
+        "SR-3",
+        "slice",
+        "observer I8F24: one step from rest (x = v = 0), every measurement".into(),
+        full,
+        || {
+            all_u32(|b| {
+                let z = Fx::from_bits(b as i32);
+                let mut o = AlphaBeta::at(Fx::ZERO);
+                o.step(z, &g);
+                let (lo, hi) = (Ord::min(z, Fx::ZERO), Ord::max(z, Fx::ZERO));
+                o.x >= lo && o.x <= hi && (o.v >= Fx::ZERO) == (z >= Fx::ZERO)
+            })
+            .map(|b| format!("z bits {b:#010x}"))
+        },
+    ));
 
     let failed: Vec<&Sweep> = results.iter().filter(|s| s.counterexample.is_some()).collect();
     let total: u64 = results.iter().map(|s| s.cases).sum();
     let secs: f64 = results.iter().map(|s| s.seconds).sum();
-    println!("exhaustive: {} sweeps, {total} cases, {secs:.1} s, {} violated", results.len(), failed.len());
+    let whole = results.iter().filter(|s| s.scope == "exhaustive").count();
+    println!(
+        "enumeration: {} sweeps ({whole} exhaustive over a whole domain, {} slices of a multi-argument domain), {total} cases, {secs:.1} s, {} violated",
+        results.len(),
+        results.len() - whole,
+        failed.len()
+    );
     for s in &failed {
         println!("VIOLATED {} {}: {}", s.requirement, s.name, s.counterexample.as_deref().unwrap_or(""));
     }
@@ -193,7 +239,7 @@ fn main() {
         let mut tsv = String::new();
         for s in &results {
             let ok = if s.counterexample.is_none() { "holds" } else { "VIOLATED" };
-            tsv.push_str(&format!("{}\texhaustive\t{}\t{}\t{}\n", s.requirement, s.cases, ok, s.name));
+            tsv.push_str(&format!("{}\t{}\t{}\t{}\t{}\n", s.requirement, s.scope, s.cases, ok, s.name));
         }
         if let Err(e) = std::fs::write(std::path::Path::new(&dir).join("exhaustive.tsv"), tsv) {
             eprintln!("exhaustive: cannot write the evidence file in {dir}: {e}");

@@ -1,14 +1,35 @@
 //! `#[kani::proof]` and friends for the shim (see the `kani-shim` crate).
 //!
-//! Written against `proc_macro` directly instead of `syn`/`quote`: the only
-//! transformation is "find the function name, wrap the item", and avoiding
-//! `syn` keeps the proof crate's build small.
+//! Written against `proc_macro` directly instead of `syn`/`quote`: the
+//! transformations are "find the function name, wrap the item" and "count
+//! the iterations of every loop", and avoiding `syn` keeps the proof crate's
+//! build small.
+//!
+//! # Unwind bounds
+//!
+//! Kani's `#[kani::unwind(N)]` unrolls every loop N times: a loop may run at
+//! most N - 1 iterations per entry, or Kani reports an unwinding-assertion
+//! failure. The shim checks the same rule at run time on the loops it can
+//! see: every `for`, `while` and `loop` written in the body of a
+//! `#[kani::proof]` function, and in the body of every function marked
+//! `#[cfg_attr(not(kani), kani::loops)]` (the harnesses' helpers; the real
+//! Kani never sees that attribute). Each such loop counts its iterations per
+//! entry and fails the harness when the count exceeds N - 1.
+//!
+//! It cannot see loops in code it does not compile with this macro: the
+//! crates under test (`kernel`, `monitor`, `protocol`), `core`'s iterator
+//! adapters (`all`, `position`, `array::map`, `array::from_fn`, ...), and
+//! dependencies. For those, the proofs crate states the largest bound and a
+//! source scan test checks it (`proofs/tests/loops.rs`); the harness calls
+//! `kani::runner::needs_unwind` to require a declared bound that covers it.
 
-use proc_macro::{Delimiter, Group, Ident, Span, TokenStream, TokenTree};
+use proc_macro::{Delimiter, Group, Ident, Literal, Punct, Spacing, Span, TokenStream, TokenTree};
 
 /// Turns a Kani harness `fn name() { ... }` into a `#[test]` that the shim
 /// runs many times (exhaustively when every input is narrow, sampled
-/// otherwise) and reports on.
+/// otherwise) and reports on. Its loops are instrumented (see the crate
+/// documentation); a `#[kani::unwind(N)]` that follows this attribute gives
+/// their bound.
 #[proc_macro_attribute]
 pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
     let tokens: Vec<TokenTree> = item.clone().into_iter().collect();
@@ -22,10 +43,14 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
         }
     }
     let Some(name) = name else {
-        return "compile_error!(\"#[kani::proof] expects a function\");".parse().unwrap_or_default();
+        return error("#[kani::proof] expects a function");
+    };
+    let unwind = match declared_unwind(&tokens) {
+        Ok(u) => u,
+        Err(e) => return error(e),
     };
     let inner = Ident::new(&format!("__kani_harness_{name}"), Span::call_site());
-    // Rename the harness so the test can take its name.
+    // Rename the harness so the test can take its name; instrument its body.
     let mut renamed: Vec<TokenTree> = Vec::with_capacity(tokens.len());
     let mut replaced = false;
     for t in tokens {
@@ -37,9 +62,12 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
             _ => renamed.push(t),
         }
     }
-    let harness: TokenStream = renamed.into_iter().collect();
+    let harness = instrument_fn_body(renamed);
+    let unwind = unwind
+        .map(|n| format!("::core::option::Option::Some({n}u32)"))
+        .unwrap_or("::core::option::Option::None".into());
     let wrapper = format!(
-        "#[test] fn {name}() {{ ::kani::runner::run(concat!(module_path!(), \"::\", stringify!({name})), {inner}); }}"
+        "#[test] fn {name}() {{ ::kani::runner::run_with_unwind(concat!(module_path!(), \"::\", stringify!({name})), {inner}, {unwind}); }}"
     );
     let mut out = TokenStream::new();
     out.extend("#[allow(dead_code)]".parse::<TokenStream>().unwrap_or_default());
@@ -48,20 +76,197 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
     out
 }
 
-/// `#[kani::unwind(n)]`: a loop bound for Kani; the shim runs loops as
-/// written, so it only checks that the argument is a literal.
+/// `#[kani::unwind(n)]`: the loop bound of a harness. `#[kani::proof]`
+/// reads it (so it must come after `#[kani::proof]`); alone it does nothing.
 #[proc_macro_attribute]
 pub fn unwind(attr: TokenStream, item: TokenStream) -> TokenStream {
-    passthrough(attr, item)
+    let a: Vec<TokenTree> = attr.into_iter().collect();
+    if !matches!(a.as_slice(), [TokenTree::Literal(_)]) {
+        return error("#[kani::unwind(N)] takes one integer literal");
+    }
+    let mentions_proof = item.clone().into_iter().collect::<Vec<_>>().windows(4).any(|w| {
+        matches!((&w[0], &w[3]), (TokenTree::Ident(k), TokenTree::Ident(p)) if k.to_string() == "kani" && p.to_string() == "proof")
+    });
+    if mentions_proof {
+        return error("the shim reads #[kani::unwind(N)] from #[kani::proof]: write #[kani::proof] first");
+    }
+    item
+}
+
+/// Shim only (write it as `#[cfg_attr(not(kani), kani::loops)]`): counts the
+/// iterations of every loop in this function's body against the running
+/// harness's `#[kani::unwind(N)]`, as `#[kani::proof]` does for the
+/// harness's own body.
+#[proc_macro_attribute]
+pub fn loops(_attr: TokenStream, item: TokenStream) -> TokenStream {
+    instrument_fn_body(item.into_iter().collect())
 }
 
 /// `#[kani::solver(...)]`: solver choice for Kani; ignored by the shim.
 #[proc_macro_attribute]
-pub fn solver(attr: TokenStream, item: TokenStream) -> TokenStream {
-    passthrough(attr, item)
+pub fn solver(_attr: TokenStream, item: TokenStream) -> TokenStream {
+    item
 }
 
-fn passthrough(_attr: TokenStream, item: TokenStream) -> TokenStream {
-    let _ = Group::new(Delimiter::None, TokenStream::new());
-    item
+fn error(msg: &str) -> TokenStream {
+    format!("compile_error!({msg:?});").parse().unwrap_or_default()
+}
+
+/// The N of a `# [kani :: unwind (N)]` among the item's outer attributes.
+fn declared_unwind(tokens: &[TokenTree]) -> Result<Option<u32>, &'static str> {
+    for w in tokens.windows(2) {
+        let (TokenTree::Punct(p), TokenTree::Group(g)) = (&w[0], &w[1]) else { continue };
+        if p.as_char() != '#' || g.delimiter() != Delimiter::Bracket {
+            continue;
+        }
+        let inner: Vec<TokenTree> = g.stream().into_iter().collect();
+        let is_unwind = inner.len() == 5
+            && matches!(&inner[0], TokenTree::Ident(i) if i.to_string() == "kani")
+            && matches!(&inner[3], TokenTree::Ident(i) if i.to_string() == "unwind");
+        if !is_unwind {
+            continue;
+        }
+        let TokenTree::Group(args) = &inner[4] else { return Err("#[kani::unwind(N)]: N missing") };
+        let n = args.stream().to_string().trim().trim_end_matches("u32").replace('_', "");
+        return n.parse::<u32>().map(Some).map_err(|_| "#[kani::unwind(N)]: N must be an integer literal");
+    }
+    Ok(None)
+}
+
+/// Instruments the body (the last brace group) of a function item.
+fn instrument_fn_body(mut tokens: Vec<TokenTree>) -> TokenStream {
+    if let Some(pos) =
+        tokens.iter().rposition(|t| matches!(t, TokenTree::Group(g) if g.delimiter() == Delimiter::Brace))
+    {
+        if let TokenTree::Group(g) = &tokens[pos] {
+            let mut ng = Group::new(Delimiter::Brace, instrument(g.stream()));
+            ng.set_span(g.span());
+            tokens[pos] = TokenTree::Group(ng);
+        }
+    }
+    tokens.into_iter().collect()
+}
+
+fn is_punct(t: Option<&TokenTree>, c: char) -> bool {
+    matches!(t, Some(TokenTree::Punct(p)) if p.as_char() == c)
+}
+
+/// Rewrites every loop in `ts` (recursively, closures included):
+///
+/// ```text
+/// 'l: for PAT in EXPR { BODY }
+/// ```
+/// becomes
+/// ```text
+/// { let mut g = ::kani::runner::Loop::enter(file!(), LINE);
+///   'l: for PAT in EXPR { g.iteration(); BODY } }
+/// ```
+/// (likewise `while` and `loop`). The wrapping block has the loop's value,
+/// so `let x = loop { break v; };` keeps its meaning.
+fn instrument(ts: TokenStream) -> TokenStream {
+    let toks: Vec<TokenTree> = ts.into_iter().collect();
+    let mut out: Vec<TokenTree> = Vec::with_capacity(toks.len());
+    let mut i = 0;
+    while i < toks.len() {
+        let kw = match &toks[i] {
+            TokenTree::Ident(id) => {
+                let s = id.to_string();
+                let is_loop = match s.as_str() {
+                    // `for<'a>` is a higher-ranked bound, not a loop; `impl X for Y` has no `in`.
+                    "for" => !is_punct(toks.get(i + 1), '<') && !out_has_impl_since_statement(&out),
+                    "while" | "loop" => true,
+                    _ => false,
+                };
+                is_loop.then(|| id.clone())
+            }
+            _ => None,
+        };
+        let Some(kw) = kw else {
+            out.push(recurse(&toks[i]));
+            i += 1;
+            continue;
+        };
+        // The body: the first brace group after the keyword at this level.
+        let Some(body_at) =
+            (i + 1..toks.len()).find(|&j| matches!(&toks[j], TokenTree::Group(g) if g.delimiter() == Delimiter::Brace))
+        else {
+            out.push(recurse(&toks[i]));
+            i += 1;
+            continue;
+        };
+        // A label `'l:` directly before the keyword goes inside the wrapper.
+        let mut label = Vec::new();
+        let n = out.len();
+        if n >= 3
+            && is_punct(out.get(n - 3), '\'')
+            && matches!(out.get(n - 2), Some(TokenTree::Ident(_)))
+            && is_punct(out.get(n - 1), ':')
+        {
+            label = out.split_off(n - 3);
+        }
+        let span = kw.span();
+        let guard = Ident::new("__kani_loop_guard", Span::mixed_site());
+        let mut inner: Vec<TokenTree> = Vec::new();
+        // let mut guard = ::kani::runner::Loop::enter(file!(), LINE);
+        inner.extend(
+            "let mut __kani_loop_guard = ::kani::runner::Loop::enter"
+                .parse::<TokenStream>()
+                .unwrap_or_default()
+                .into_iter()
+                .map(|t| respan_ident(t, &guard)),
+        );
+        let mut args: Vec<TokenTree> = "file!(),".parse::<TokenStream>().unwrap_or_default().into_iter().collect();
+        args.push(TokenTree::Literal(Literal::u32_suffixed(span.line() as u32)));
+        inner.push(TokenTree::Group(Group::new(Delimiter::Parenthesis, args.into_iter().collect())));
+        inner.push(TokenTree::Punct(Punct::new(';', Spacing::Alone)));
+        inner.extend(label);
+        inner.push(TokenTree::Ident(kw));
+        for t in &toks[i + 1..body_at] {
+            inner.push(recurse(t));
+        }
+        let TokenTree::Group(body) = &toks[body_at] else { unreachable!() };
+        let mut b: Vec<TokenTree> = Vec::new();
+        b.push(TokenTree::Ident(guard.clone()));
+        b.extend(".iteration();".parse::<TokenStream>().unwrap_or_default());
+        b.extend(instrument(body.stream()));
+        let mut bg = Group::new(Delimiter::Brace, b.into_iter().collect());
+        bg.set_span(body.span());
+        inner.push(TokenTree::Group(bg));
+        out.push(TokenTree::Group(Group::new(Delimiter::Brace, inner.into_iter().collect())));
+        i = body_at + 1;
+    }
+    out.into_iter().collect()
+}
+
+/// The guard's identifier as parsed from text has call-site hygiene; give it
+/// the mixed-site one so that it cannot clash with the harness's names.
+fn respan_ident(t: TokenTree, guard: &Ident) -> TokenTree {
+    match t {
+        TokenTree::Ident(i) if i.to_string() == guard.to_string() => TokenTree::Ident(guard.clone()),
+        other => other,
+    }
+}
+
+/// `impl Trait for Type` inside a body: an `impl` since the last `;` or `}`.
+fn out_has_impl_since_statement(out: &[TokenTree]) -> bool {
+    for t in out.iter().rev() {
+        match t {
+            TokenTree::Punct(p) if p.as_char() == ';' => return false,
+            TokenTree::Group(g) if g.delimiter() == Delimiter::Brace => return false,
+            TokenTree::Ident(i) if i.to_string() == "impl" => return true,
+            _ => {}
+        }
+    }
+    false
+}
+
+fn recurse(t: &TokenTree) -> TokenTree {
+    match t {
+        TokenTree::Group(g) => {
+            let mut ng = Group::new(g.delimiter(), instrument(g.stream()));
+            ng.set_span(g.span());
+            TokenTree::Group(ng)
+        }
+        other => other.clone(),
+    }
 }

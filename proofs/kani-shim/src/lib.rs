@@ -18,10 +18,16 @@
 //! was reached. A cover never reached fails the harness: it means an
 //! assumption made the harness vacuous (or the samples too few).
 //!
+//! Loop bounds are checked as Kani checks them: with `#[kani::unwind(N)]`
+//! every loop the shim can see (the harness's own body and helpers marked
+//! `#[cfg_attr(not(kani), kani::loops)]`) may run at most N - 1 iterations
+//! per entry, and loops it cannot see (in the code under test) are declared
+//! with [`runner::needs_unwind`]; see the `kani-shim-macros` crate.
+//!
 //! This is *sampled* or *exhaustive* evidence in the sense of
 //! `VERIFICATION.md`, never *symbolic*: only Kani itself gives that.
 
-pub use kani_shim_macros::{proof, solver, unwind};
+pub use kani_shim_macros::{loops, proof, solver, unwind};
 
 pub mod runner;
 

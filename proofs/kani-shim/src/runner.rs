@@ -1,7 +1,7 @@
 //! Runs one harness: exhaustive enumeration of its choice tree when it is
 //! small and narrow, seeded sampling otherwise; reports what it did.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::panic::{self, AssertUnwindSafe};
@@ -89,6 +89,60 @@ impl Source {
 thread_local! {
     static SOURCE: RefCell<Option<Source>> = const { RefCell::new(None) };
     static COVERS: RefCell<BTreeMap<&'static str, bool>> = const { RefCell::new(BTreeMap::new()) };
+    /// The running harness's `#[kani::unwind(N)]` (None: not declared).
+    static UNWIND: Cell<Option<u32>> = const { Cell::new(None) };
+    /// Most iterations any instrumented loop ran in one entry, this harness.
+    static LONGEST: Cell<u64> = const { Cell::new(0) };
+    /// Largest bound a `needs_unwind` call asked for, this harness.
+    static NEEDED: Cell<u32> = const { Cell::new(0) };
+}
+
+/// One entry into an instrumented loop (the `#[kani::proof]` and
+/// `kani::loops` macros create it before the loop and call
+/// [`Loop::iteration`] at the top of its body).
+#[derive(Debug)]
+pub struct Loop {
+    file: &'static str,
+    line: u32,
+    count: u64,
+}
+
+impl Loop {
+    /// Enters the loop written at `file:line`.
+    pub fn enter(file: &'static str, line: u32) -> Self {
+        Loop { file, line, count: 0 }
+    }
+    /// One more iteration. Kani's `#[kani::unwind(N)]` allows at most N - 1
+    /// iterations per entry (the N-th unwinding is the unwinding assertion):
+    /// one more fails the harness, as the unwinding assertion fails under
+    /// Kani.
+    pub fn iteration(&mut self) {
+        self.count += 1;
+        LONGEST.with(|l| l.set(l.get().max(self.count)));
+        if let Some(n) = UNWIND.with(Cell::get) {
+            if self.count > u64::from(n.saturating_sub(1)) {
+                panic!(
+                    "unwinding assertion: the loop at {}:{} runs iteration {}, but #[kani::unwind({n})] allows at most {}",
+                    self.file,
+                    self.line,
+                    self.count,
+                    n.saturating_sub(1)
+                );
+            }
+        }
+    }
+}
+
+/// A loop the shim cannot instrument (in the code under test, or in
+/// `core`) runs up to `n - 1` iterations: the harness's declared unwind must
+/// be at least `n`. `what` names the loop and where its bound is stated.
+pub fn needs_unwind(n: u32, what: &str) {
+    NEEDED.with(|c| c.set(c.get().max(n)));
+    if let Some(d) = UNWIND.with(Cell::get) {
+        if d < n {
+            panic!("unwinding assertion: {what} needs #[kani::unwind({n})] or more; the harness declares {d}");
+        }
+    }
 }
 
 /// Calls `f` with the current case's source.
@@ -157,26 +211,62 @@ pub struct Report {
     pub covers: (usize, usize),
     /// Seed (sampled only).
     pub seed: Option<u64>,
+    /// Most iterations an instrumented loop ran in one entry.
+    pub longest_loop: u64,
+    /// Largest unwind the uninstrumented loops asked for (`needs_unwind`).
+    pub needed_unwind: u32,
 }
 
-/// Runs a harness; panics (failing the test) on a counterexample or an
-/// unreached cover.
+/// Runs a harness without a declared unwind bound.
 pub fn run(name: &str, harness: fn()) {
+    run_with_unwind(name, harness, None);
+}
+
+/// Runs a harness whose loops may run at most `unwind - 1` iterations per
+/// entry; panics (failing the test) on a counterexample, an exceeded loop
+/// bound or an unreached cover.
+pub fn run_with_unwind(name: &str, harness: fn(), unwind: Option<u32>) {
+    if let Err(e) = check(name, harness, unwind) {
+        panic!("{e}");
+    }
+}
+
+/// Runs a harness and reports, or says why it failed (counterexample,
+/// loop bound exceeded, cover never reached, every case discarded).
+pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, String> {
     install_hook();
     COVERS.with(|c| c.borrow_mut().clear());
-    let report = match exhaustive(name, harness) {
+    UNWIND.with(|u| u.set(unwind));
+    LONGEST.with(|l| l.set(0));
+    NEEDED.with(|c| c.set(0));
+    let report = panic::catch_unwind(AssertUnwindSafe(|| match exhaustive(name, harness) {
         Some(r) => r,
         None => {
             COVERS.with(|c| c.borrow_mut().clear());
             sampled(name, harness)
         }
-    };
+    }));
+    UNWIND.with(|u| u.set(None));
+    let report = report.map_err(|p| {
+        let msg = p
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "panic".into());
+        format!("kani-shim: {name}: FAILED: {msg}")
+    })?;
     let covers: BTreeMap<&'static str, bool> = COVERS.with(|c| c.borrow().clone());
     let hit = covers.values().filter(|h| **h).count();
-    let report = Report { covers: (hit, covers.len()), ..report };
+    let longest = LONGEST.with(Cell::get);
+    let needed = NEEDED.with(Cell::get);
+    let report = Report { covers: (hit, covers.len()), longest_loop: longest, needed_unwind: needed, ..report };
     let seed = report.seed.map(|s| format!(", seed {s:#x}")).unwrap_or_default();
+    let bound = match unwind {
+        Some(n) => format!("unwind {n}"),
+        None => "no unwind declared".into(),
+    };
     let line = format!(
-        "kani-shim: {name}: {}, {} cases ({} discarded by assume){seed}, covers {}/{}",
+        "kani-shim: {name}: {}, {} cases ({} discarded by assume){seed}, covers {}/{}, {bound}: longest instrumented loop {longest} iterations, uninstrumented loops need unwind {needed}",
         report.kind,
         report.cases,
         report.discarded,
@@ -186,13 +276,25 @@ pub fn run(name: &str, harness: fn()) {
     println!("{line}");
     if let Ok(path) = std::env::var("KANI_SHIM_REPORT") {
         if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(&path) {
-            let _ =
-                writeln!(f, "{name}\t{}\t{}\t{}\t{hit}/{}", report.kind, report.cases, report.discarded, covers.len());
+            let u = unwind.map(|n| n.to_string()).unwrap_or_else(|| "-".into());
+            let _ = writeln!(
+                f,
+                "{name}\t{}\t{}\t{}\t{hit}/{}\t{u}\t{longest}\t{needed}",
+                report.kind,
+                report.cases,
+                report.discarded,
+                covers.len()
+            );
         }
     }
     let missed: Vec<_> = covers.iter().filter(|(_, h)| !**h).map(|(s, _)| *s).collect();
-    assert!(missed.is_empty(), "{line}\ncover never satisfied (vacuous assumption or too few samples): {missed:?}");
-    assert!(report.cases > 0, "{line}\nevery case was discarded by kani::assume: the harness is vacuous");
+    if !missed.is_empty() {
+        return Err(format!("{line}\ncover never satisfied (vacuous assumption or too few samples): {missed:?}"));
+    }
+    if report.cases == 0 {
+        return Err(format!("{line}\nevery case was discarded by kani::assume: the harness is vacuous"));
+    }
+    Ok(report)
 }
 
 fn exhaustive(name: &str, harness: fn()) -> Option<Report> {
@@ -231,7 +333,17 @@ fn exhaustive(name: &str, harness: fn()) -> Option<Report> {
                     break;
                 }
                 Some(_) => continue,
-                None => return Some(Report { kind: "exhaustive", cases, discarded, covers: (0, 0), seed: None }),
+                None => {
+                    return Some(Report {
+                        kind: "exhaustive",
+                        cases,
+                        discarded,
+                        covers: (0, 0),
+                        seed: None,
+                        longest_loop: 0,
+                        needed_unwind: 0,
+                    })
+                }
             }
         }
         prefix = t.iter().map(|(v, _)| *v).collect();
@@ -254,5 +366,5 @@ fn sampled(name: &str, harness: fn()) -> Report {
             }
         }
     }
-    Report { kind: "sampled", cases, discarded, covers: (0, 0), seed: Some(seed) }
+    Report { kind: "sampled", cases, discarded, covers: (0, 0), seed: Some(seed), longest_loop: 0, needed_unwind: 0 }
 }

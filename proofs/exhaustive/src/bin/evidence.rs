@@ -27,25 +27,31 @@ fn main() {
             shim.insert(short, (kind.to_string(), cases.parse().unwrap_or(0)));
         }
     }
-    // requirement -> [(kind, cases, result)]
-    let mut by_req: BTreeMap<String, Vec<(String, u64, String)>> = BTreeMap::new();
+    // requirement -> [(kind, cases, result, what)]: kind `exhaustive` (a
+    // whole domain) or `slice` (one argument of several enumerated).
+    let mut by_req: BTreeMap<String, Vec<(String, u64, String, String)>> = BTreeMap::new();
     for l in read(&dir, "exhaustive.tsv").lines() {
         let c: Vec<&str> = l.split('\t').collect();
-        if let [reqs, kind, cases, result, ..] = c[..] {
+        if let [reqs, kind, cases, result, name, ..] = c[..] {
             let reqs = reqs.replace("SR-", "");
             for r in reqs.split('/') {
                 by_req.entry(format!("SR-{r}")).or_default().push((
                     kind.into(),
                     cases.parse().unwrap_or(0),
                     result.into(),
+                    name.into(),
                 ));
             }
         }
     }
-    let model: Option<(u64, String)> = read(&dir, "model.tsv").lines().next().and_then(|l| {
-        let c: Vec<&str> = l.split('\t').collect();
-        Some((c.get(2)?.parse().ok()?, c.get(3)?.to_string()))
-    });
+    // One line per model run (variant and configuration in the last field).
+    let model: Vec<(u64, String, String)> = read(&dir, "model.tsv")
+        .lines()
+        .filter_map(|l| {
+            let c: Vec<&str> = l.split('\t').collect();
+            Some((c.get(2)?.parse().ok()?, c.get(3)?.to_string(), c.get(4).unwrap_or(&"").to_string()))
+        })
+        .collect();
     let start = safety.find("## 6. Traceability").unwrap_or(0);
     let mut missing = Vec::new();
     println!("\n{:<6} {:<14} {:>16}  {:<8} detail", "req", "kind", "cases/states", "result");
@@ -63,13 +69,14 @@ fn main() {
         for (k, n) in shim_cases {
             rows.push((k, n, "holds".into(), format!("{} Kani harness(es) under the shim", harnesses.len())));
         }
-        for (k, n, r) in by_req.get(id).into_iter().flatten() {
-            rows.push((k.clone(), *n, r.clone(), "full-domain sweep".into()));
+        for (k, n, r, what) in by_req.get(id).into_iter().flatten() {
+            let detail = if k == "exhaustive" { format!("whole domain: {what}") } else { format!("slice: {what}") };
+            rows.push((k.clone(), *n, r.clone(), detail));
         }
         // A kind counts only where it is claimed, not where it is denied.
         if executed.contains("model-checked") && !executed.contains("not model-checked") {
-            if let Some((n, r)) = &model {
-                rows.push(("model-checked".into(), *n, r.clone(), "every reachable state".into()));
+            for (n, r, what) in &model {
+                rows.push(("model-checked".into(), *n, r.clone(), format!("every reachable state: {what}")));
             }
         }
         if rows.is_empty() {
