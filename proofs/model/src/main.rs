@@ -76,9 +76,8 @@ const MODEL_CONFIG: ArmConfig = {
     let mut i = 0;
     while i < AXES {
         c.joints[i].homing.timeout_ms = 8;
-        // The largest value the rules allow (1 rad/s per tick: it binds,
-        // a near target asks for 2 rad/s at once).
-        c.joints[i].max_acceleration = 1000.0;
+        // (max_acceleration stays PAROL6's: with the 100 ms ramp restored,
+        // `check` bounds it by the ramp and the stopping overrun.)
         i += 1;
     }
     c.segment_min_ms = 1;
@@ -93,13 +92,14 @@ const MODEL_CONFIG: ArmConfig = {
 };
 
 /// What `MODEL_CONFIG` relaxes of `kernel::config::check` (the rule each
-/// breaks); the same two as `proofs::setup::PROOF_RELAXATIONS`.
-const MODEL_RELAXATIONS: [(&str, &str); 2] = [
+/// breaks); the same three as `proofs::setup::PROOF_RELAXATIONS`.
+const MODEL_RELAXATIONS: [(&str, &str); 3] = [
     ("joints[*].homing.backoff = 0", "homing back-off must be in (0, 0.5) rad"),
     (
         "joints[*].homing.timeout_ms = 8",
         "homing timeout shorter than 1.2x the nominal homing time: homing is impossible",
     ),
+    ("soft_stop_ms = 4", "soft-stop ramp decelerates faster than max_acceleration"),
 ];
 
 /// The J1 encoder as seen by the plant: the count it was (re)initialised
@@ -785,7 +785,11 @@ mod tests {
             j.homing.backoff = p.homing.backoff;
             j.homing.timeout_ms = p.homing.timeout_ms;
         }
+        c.soft_stop_ms = PAROL6.soft_stop_ms;
         assert_eq!(check(&c), Ok(()), "without the relaxations the model's configuration passes check");
+        let mut one = c;
+        one.soft_stop_ms = 4;
+        assert_eq!(check(&one), Err(MODEL_RELAXATIONS[2].1));
         let mut one = c;
         one.joints.iter_mut().for_each(|j| j.homing.backoff = 0.0);
         assert_eq!(check(&one), Err(MODEL_RELAXATIONS[0].1));
@@ -799,8 +803,10 @@ mod tests {
         c.segment_min_ms = PAROL6.segment_min_ms;
         c.segment_max_ms = PAROL6.segment_max_ms;
         c.boot_timeout_ms = PAROL6.boot_timeout_ms;
+        c.homing_settle_ms = PAROL6.homing_settle_ms;
         for (j, p) in c.joints.iter_mut().zip(PAROL6.joints.iter()) {
             j.max_acceleration = p.max_acceleration;
+            j.homing.switch_position = p.homing.switch_position;
         }
         assert_eq!(c, PAROL6);
     }
