@@ -540,7 +540,8 @@ fn sr25_homing_output_step() {
     let mut r = Rig::new();
     r.run(3);
     r.tick(Some(Request::Home));
-    r.run(20);
+    // The run rests homing_settle_ms (50 ms) before J6 seeks.
+    r.run(70);
     assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
     let v = r.caught("SR-25", |o, _| o.act.velocity[5] += 0.5);
     assert_eq!(v.axis, Some(5));
@@ -551,7 +552,8 @@ fn sr28_homing_travel_beyond_its_bound() {
     let mut r = Rig::new();
     r.run(3);
     r.tick(Some(Request::Home));
-    r.run(20);
+    // The run rests homing_settle_ms (50 ms) before J6 seeks.
+    r.run(70);
     assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
     let v = r.caught("SR-28", |o, _| o.status.position[5] += PAROL6.joints[5].homing.max_travel + 0.01);
     assert_eq!(v.axis, Some(5));
