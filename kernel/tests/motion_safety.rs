@@ -114,9 +114,13 @@ fn streaming_to_the_limit_stays_inside_it<S: Scalar>() {
 /// it hit its switch. Now the following error faults it within a bound.
 fn a_reversed_motor_faults_within_its_bound<S: Scalar>() {
     let mut r = homed::<S>();
+    // Away from J1's switch first (homing leaves it next to it).
+    let mut p = r.plant.q;
+    p[0] += 0.8;
+    r.goto(p);
+    r.run(1_000);
     r.plant.reversed = 0b1;
     let q0 = r.plant.q[0];
-    let mut p = r.plant.q;
     p[0] += 0.5;
     r.goto(p);
     let n = r.run_until(1_000, |o| o.status.state == State::Fault).expect("faults");
@@ -125,7 +129,9 @@ fn a_reversed_motor_faults_within_its_bound<S: Scalar>() {
     println!("J1 reversed: {reason:?} after {n} ms, {:.1} mrad the wrong way", wrong_way * 1e3);
     assert_eq!(reason, FaultReason::FollowingError { axis: 0 });
     assert!(n <= 120, "{n} ms");
-    assert!(wrong_way < 0.06, "{wrong_way} rad the wrong way");
+    // The following-error bound, plus 20 ms at the speed reached (under
+    // 1 rad/s), plus the observer's lag: 0.075 rad.
+    assert!(wrong_way < 0.075, "{wrong_way} rad the wrong way");
     assert!(r.last.unwrap().act.velocity.iter().all(|v| *v == S::ZERO));
 }
 

@@ -72,8 +72,8 @@ fn homed_axis_leaving_its_limits_faults<S: Scalar>() {
     // push at the acceleration limit): 0.05 rad of error plus the 20 ms the
     // error may last, at that speed.
     let drift = r.plant.q[1] - q0;
-    // Plus 10 mrad: the estimate lags the true angle while it accelerates.
-    let bound = f64::from(PAROL6.following_error) + 3.5 * (f64::from(PAROL6.following_error_ms) + 1.0) / 1000.0 + 0.01;
+    // Plus 20 mrad: the estimate lags the true angle while it accelerates.
+    let bound = f64::from(PAROL6.following_error) + 3.5 * (f64::from(PAROL6.following_error_ms) + 1.0) / 1000.0 + 0.02;
     println!("J2 dragged at 3.5 rad/s: following-error fault after {n} ticks, {drift:.3} rad (bound {bound:.3})");
     assert!(drift < bound, "faulted after {drift} rad of drift");
     // Still dragged (outputs are zero in Fault) until past its limit + margin.

@@ -60,10 +60,10 @@ impl<S: Scalar> Axis<S> {
     /// Following error against the commanded path: farther than `fe`, or
     /// more than half of it off while moving against the command applied
     /// last tick (`cmd`), for more than `fe_ticks` ticks is a fault.
-    fn following(&mut self, axis: u8, cmd: S, k: &Params<S>, fault: &mut Option<FaultReason>) {
+    fn following(&mut self, axis: u8, cmd: S, p: &AxisParams<S>, k: &Params<S>, fault: &mut Option<FaultReason>) {
         let e = self.path.minus(self.obs.x);
         let v = self.obs.v;
-        let min = k.fe_min_speed;
+        let min = p.dir_speed;
         let against = (cmd > min && v < min.neg()) || (cmd < min.neg() && v > min);
         let away = e.abs() > k.fe_half && against;
         let bad = e.abs() > k.fe || away;
@@ -195,12 +195,12 @@ impl<S: Scalar> Kernel<S> {
     /// (Operational set it to the set-point in `follow`).
     pub(super) fn following(&mut self, integrate: bool, fault: &mut Option<FaultReason>) {
         let k = &self.p;
-        for (i, (ax, prev)) in self.axes.iter_mut().zip(self.last_out.iter()).enumerate() {
+        for (i, ((ax, prev), p)) in self.axes.iter_mut().zip(self.last_out.iter()).zip(k.axes.iter()).enumerate() {
             if integrate {
                 ax.path = ax.path.plus(prev.times(k.gains.dt));
             }
             if ax.ready && !ax.needs_reinit {
-                ax.following(i as u8, *prev, k, fault);
+                ax.following(i as u8, *prev, p, k, fault);
             }
         }
     }

@@ -78,6 +78,12 @@ pub(crate) struct AxisParams<S: Scalar> {
     /// Plausibility window (counts) for one tick.
     pub max_jump: i32,
     pub switch_position: S,
+    /// Speed (rad/s) above which the estimate moving against the command
+    /// counts as the wrong direction: half the speed limit. The observer's
+    /// velocity lags a reversal at full acceleration by up to ~2 rad/s (a
+    /// clean plant tripped a lower threshold in the property tests); below
+    /// it, the distance bound alone catches a reversed motor.
+    pub dir_speed: S,
     /// Re-homing a homed joint: fast-seek travel allowed beyond the known
     /// distance to its switch (rad): 0.1 rad plus the braking distance.
     pub rehome_margin: S,
@@ -110,6 +116,7 @@ impl<S: Scalar> AxisParams<S> {
             max_jump: j.max_jump_counts(c.tick_hz),
             switch_position: S::from_f32(j.homing.switch_position),
             rehome_margin: S::from_f32(0.1 + j.braking_distance(j.homing.fast_speed)),
+            dir_speed: S::from_f32(0.5 * j.max_velocity),
             homing: HomingParams {
                 fast_toward: S::from_f32(j.homing.fast_speed * dir),
                 slow_toward: S::from_f32(j.homing.slow_speed * dir),
@@ -148,8 +155,7 @@ pub(crate) struct Params<S: Scalar> {
     pub fe: S,
     pub fe_half: S,
     pub fe_ticks: u32,
-    /// Estimated speeds below this are no direction (rad/s).
-    pub fe_min_speed: S,
+
     /// Outputs at or below this are holding, not moving (rad/s).
     pub hold_speed: S,
     pub invalid_limit: u32,
@@ -179,9 +185,6 @@ impl<S: Scalar> Params<S> {
             fe: S::from_f32(c.following_error),
             fe_half: S::from_f32(c.following_error * 0.5),
             fe_ticks: ms_to_ticks(c.following_error_ms, c.tick_hz),
-            // Direction is judged only at speed: near rest, the observer's
-            // velocity lags a reversal (a clean plant tripped it at 0.057 rad/s).
-            fe_min_speed: S::from_f32(0.2),
             hold_speed: S::from_f32(HOLD_SPEED),
             boot_ticks: ms_to_ticks(c.boot_timeout_ms, c.tick_hz),
             home_wait_ticks: ms_to_ticks(c.homing_settle_ms, c.tick_hz),
