@@ -61,18 +61,7 @@ struct Stream {
 
 /// The stream's continuous reference pose at `t` (the jog's final pose after its end).
 fn stream_pose(s: &Stream, t: u64) -> [f64; AXES] {
-    let el = (t.min(s.end) - s.start) as f64 / 1000.0;
-    match s.motion {
-        Motion::Cosine { period_ms, amp } => {
-            let w = std::f64::consts::TAU / (period_ms as f64 / 1000.0);
-            std::array::from_fn(|i| s.p0[i] + amp[i] * (1.0 - (w * el).cos()) / 2.0)
-        }
-        Motion::Jog { joint, vel } => {
-            let mut p = s.p0;
-            p[joint] += vel * el;
-            p
-        }
-    }
+    s.motion.sample(&s.p0, s.start, s.end, t).0
 }
 
 struct Hosts {
@@ -344,23 +333,8 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 continue;
             }
             s.next += s.period;
-            let el = (t.min(s.end) - s.start) as f64 / 1000.0;
-            let done = t >= s.end;
-            let p = stream_pose(s, t);
-            let v = match s.motion {
-                Motion::Cosine { period_ms, amp } => {
-                    let w = std::f64::consts::TAU / (period_ms as f64 / 1000.0);
-                    std::array::from_fn(|i| amp[i] * w * (w * el).sin() / 2.0)
-                }
-                Motion::Jog { joint, vel } => {
-                    let mut v = [0.0; AXES];
-                    if !done {
-                        v[joint] = vel;
-                    }
-                    v
-                }
-            };
-            let last = done;
+            let (p, v) = s.motion.sample(&s.p0, s.start, s.end, t);
+            let last = t >= s.end;
             let l = hosts.frame(s.client, &p, &v);
             if hosts.cable {
                 input.extend_from_slice(l.as_bytes());

@@ -100,6 +100,36 @@ pub enum Motion {
     },
 }
 
+impl Motion {
+    /// The stream's reference pose and velocity at `t` (ms), for a stream
+    /// from pose `p0` that runs from `start` to `end` (the jog's final pose,
+    /// at velocity 0, after its end). One definition for the simulator's
+    /// runner and the twin's, so both send the same frames.
+    pub fn sample(&self, p0: &[f64; AXES], start: u64, end: u64, t: u64) -> ([f64; AXES], [f64; AXES]) {
+        let el = (t.min(end).saturating_sub(start)) as f64 / 1000.0;
+        match *self {
+            Motion::Cosine { period_ms, amp } => {
+                let w = std::f64::consts::TAU / (period_ms as f64 / 1000.0);
+                (
+                    std::array::from_fn(|i| p0[i] + amp[i] * (1.0 - (w * el).cos()) / 2.0),
+                    std::array::from_fn(|i| amp[i] * w * (w * el).sin() / 2.0),
+                )
+            }
+            Motion::Jog { joint, vel } => {
+                let mut p = *p0;
+                let mut v = [0.0; AXES];
+                if let (Some(x), Some(y)) = (p.get_mut(joint), v.get_mut(joint)) {
+                    *x += vel * el;
+                    if t < end {
+                        *y = vel;
+                    }
+                }
+                (p, v)
+            }
+        }
+    }
+}
+
 /// One scripted action.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Action {

@@ -90,28 +90,9 @@ struct Stream {
 }
 
 impl Stream {
-    /// Pose and velocity at `t` (ms), as the simulator's runner computes
-    /// them.
+    /// Pose and velocity at `t` (ms): the simulator's own definition.
     fn sample(&self, t: u64) -> ([f64; AXES], [f64; AXES]) {
-        let el = (t.min(self.end) - self.start) as f64 / 1000.0;
-        match self.motion {
-            Motion::Cosine { period_ms, amp } => {
-                let w = std::f64::consts::TAU / (period_ms as f64 / 1000.0);
-                (
-                    std::array::from_fn(|i| self.p0[i] + amp[i] * (1.0 - (w * el).cos()) / 2.0),
-                    std::array::from_fn(|i| amp[i] * w * (w * el).sin() / 2.0),
-                )
-            }
-            Motion::Jog { joint, vel } => {
-                let mut p = self.p0;
-                p[joint] += vel * el;
-                let mut v = [0.0; AXES];
-                if t < self.end {
-                    v[joint] = vel;
-                }
-                (p, v)
-            }
-        }
+        self.motion.sample(&self.p0, self.start, self.end, t)
     }
 }
 
