@@ -133,21 +133,16 @@ impl JointConfig {
     pub const fn rad_per_count(&self) -> f64 {
         core::f64::consts::TAU / (COUNTS_PER_REV as f64 * self.gear_ratio as f64)
     }
-    /// Largest plausible change of the encoder reading between two
-    /// accepted samples `ticks` ticks apart (counts): that many ticks plus
-    /// two PWM frames of motion at the runaway velocity, plus the noise
-    /// allowance. The window grows by one tick per skipped sample.
-    pub const fn jump_window_counts(&self, tick_hz: u32, ticks: u32) -> i32 {
-        let window_s = ticks as f64 / tick_hz as f64 + 2.0 * ENCODER_FRAME_S;
+    /// Largest plausible change of the encoder reading in one tick
+    /// (counts): a tick plus two PWM frames of motion at the runaway
+    /// velocity, plus the noise allowance.
+    pub const fn max_jump_counts(&self, tick_hz: u32) -> i32 {
+        let window_s = 1.0 / tick_hz as f64 + 2.0 * ENCODER_FRAME_S;
         let c = self.runaway_velocity as f64 / self.rad_per_count() * window_s;
         // ceil for a positive value
         let t = c as i32;
         let t = if (t as f64) < c { t + 1 } else { t };
         t + JUMP_SLACK_COUNTS
-    }
-    /// Largest plausible change of the encoder reading in one tick (counts).
-    pub const fn max_jump_counts(&self, tick_hz: u32) -> i32 {
-        self.jump_window_counts(tick_hz, 1)
     }
     /// Nominal time (ms) homing needs at these speeds, over the whole range.
     pub const fn homing_nominal_ms(&self, settle_ms: u32) -> f32 {
