@@ -11,15 +11,20 @@
 //! - [`homing_seq`]: the homing sequencer glue: groups, zero capture, end
 //!   of a run;
 //! - [`supervisor`]: the state machine and the fault checks, with every
-//!   change of mode in one function, `Kernel::transition`.
+//!   change of mode in one function, `Kernel::transition`;
+//! - [`invariant`]: the state invariant every reachable state satisfies,
+//!   and (feature `proof-states`) kernels built in any state satisfying it.
 
 mod axis;
 mod homing_seq;
 mod intake;
+mod invariant;
 mod params;
 mod supervisor;
 
 use self::axis::Axis;
+#[cfg(feature = "proof-states")]
+pub use self::invariant::{AxisSpec, SpecMode, StateSpec};
 use self::params::Params;
 pub use self::params::TargetLimits;
 use self::supervisor::Mode;

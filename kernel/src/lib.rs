@@ -59,6 +59,8 @@ pub mod observer;
 pub mod scalar;
 mod types;
 
+#[cfg(feature = "proof-states")]
+pub use kernel::{AxisSpec, SpecMode, StateSpec};
 pub use kernel::{Kernel, TargetLimits};
 pub use scalar::{Fx, Scalar};
 pub use types::*;

@@ -31,4 +31,6 @@ mod numeric;
 #[cfg(all(test, not(kani)))]
 mod shim_checks;
 #[cfg(any(kani, test))]
+mod state_props;
+#[cfg(any(kani, test))]
 mod wire;

@@ -163,6 +163,7 @@ impl<S: Scalar> Checked<S> {
         let o = self.k.tick(sense, request);
         let r = self.mon.check(sense, sent.as_ref(), &o, Some(&self.k.homing_phases()), None);
         assert!(r.is_ok(), "safety monitor: {r:?}");
+        assert!(self.k.invariant(), "the kernel's state invariant");
         o
     }
 }

@@ -561,7 +561,7 @@ pub fn start_strategy() -> BoxedStrategy<Start> {
     ];
     prop_oneof![
         2 => Just(Start::Homed),
-        1 => (q, off, proptest::option::weighted(0.2, (0..AXES, 1u64..=120)))
+        1 => (q, off, proptest::option::weighted(0.5, (0..AXES, 1u64..=120)))
             .prop_map(|(q, offset, boot_lost)| Start::Fresh { q, offset, boot_lost }),
     ]
     .boxed()
@@ -689,7 +689,12 @@ impl<S: Variant> Sut<S> {
             self.recent.pop_front();
         }
         self.recent.push_back((self.ticks, sense, req, out));
-        if let Err(e) = self.mon.check(&sense, sent.as_ref(), &out, Some(&self.k.homing_phases()), Some(&facts)) {
+        let checked = self.mon.check(&sense, sent.as_ref(), &out, Some(&self.k.homing_phases()), Some(&facts));
+        let checked = checked.map_err(|e| e.to_string()).and_then(|()| match self.k.invariant() {
+            true => Ok(()),
+            false => Err(format!("the kernel's state invariant (Kernel::invariant) broken: {:?}", self.k)),
+        });
+        if let Err(e) = checked {
             let mut msg = format!("[{}] tick {}: {e}\n  recent ticks:\n", S::NAME, self.ticks);
             for (t, s, r, o) in &self.recent {
                 msg += &format!("   #{t} sense {s:?}\n      req {r:?}\n      out {o:?}\n");

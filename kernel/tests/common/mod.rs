@@ -73,6 +73,7 @@ impl<S: Scalar> Rig<S> {
         self.wit.before(&self.plant);
         let sent = req.as_ref().map(Sent::of);
         let out = self.k.tick(&sense, req);
+        assert!(self.k.invariant(), "tick {}: the kernel's state invariant: {:?}", self.ticks, self.k);
         let facts = self.wit.after(&self.plant, &out);
         if let Err(v) = self.mon.check(&sense, sent.as_ref(), &out, Some(&self.k.homing_phases()), Some(&facts)) {
             panic!("tick {}: {v}\n  sense {sense:?}\n  request {sent:?}\n  out {out:?}", self.ticks);

@@ -556,6 +556,9 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             Property::<Self>::always("a fault always has its reason", |_, s: &St<S>| {
                 (s.k.state() == State::Fault) == s.k.fault().is_some()
             }),
+            Property::<Self>::always("the kernel's state invariant (Kernel::invariant)", |_, s: &St<S>| {
+                s.k.invariant()
+            }),
             Property::<Self>::sometimes("operational", |_, s: &St<S>| s.k.state() == State::Operational),
             Property::<Self>::sometimes("moving in operational", |_, s: &St<S>| {
                 s.k.state() == State::Operational && !zero(&s.k.last_output())
@@ -737,8 +740,12 @@ fn main() {
         };
         let name = if variant == "fx" { "Kernel<Fx>" } else { "Kernel<f32>" };
         println!(
-            "model-checked {name}, {cfg} configuration: {} states ({} unique), max depth {}, {:.1} s",
-            r.generated, r.unique, r.depth, r.secs
+            "{} {name}, {cfg} configuration: {} states ({} unique), max depth {}, {:.1} s",
+            if r.exhaustive { "model-checked" } else { "explored (bounded, sampled evidence)" },
+            r.generated,
+            r.unique,
+            r.depth,
+            r.secs
         );
         if let Some(want) = expect {
             let hit: Vec<&String> = r.violated.iter().filter(|v| v.contains(want)).collect();

@@ -1,0 +1,222 @@
+//! The kernel's state invariant ([`Kernel::invariant`]) and, for proofs
+//! only, kernels built in any state that satisfies it
+//! ([`Kernel::from_spec`], feature `proof-states`).
+//!
+//! The invariant is what every reachable state satisfies and what the
+//! safety properties of one tick rest on. Evidence that it is one:
+//! it holds in `Kernel::new`'s state; the Kani harnesses of
+//! `proofs/src/state_props.rs` check that one tick from **any** state
+//! satisfying it (built by `from_spec` from symbolic values), with any
+//! sensors and any request, ends in a state satisfying it (induction);
+//! the scenario tests, the property tests and the model exploration check
+//! it on every tick they run.
+
+use super::supervisor::Mode;
+use super::{Kernel, ALL};
+use crate::homing::Phase;
+use crate::scalar::Scalar;
+
+impl<S: Scalar> Kernel<S> {
+    /// The soft-stop envelope's scale at ramp tick `k`: `(N - k) / N`,
+    /// computed as the ramp computes it.
+    pub(super) fn stop_scale(&self, k: u32) -> S {
+        let left = i32::try_from(self.p.stop_ticks.saturating_sub(k)).unwrap_or(0);
+        self.p.inv_stop.times_int(left).min(S::ONE).max(S::ZERO)
+    }
+
+    /// The state invariant. Every state reachable through [`Kernel::new`]
+    /// and [`Kernel::tick`] satisfies it:
+    ///
+    /// 1. a fault is latched exactly in Fault;
+    /// 2. the last outputs are finite and within each joint's speed limit;
+    ///    exactly zero in Boot, Unhomed, SoftEstop and Fault;
+    /// 3. Operational only with every joint homed; no joint is in a homing
+    ///    phase outside Homing;
+    /// 4. in Stopping at ramp tick `k <= N` from outputs `v0` (finite,
+    ///    within the speed limits), each last output lies between zero and
+    ///    `v0 (N - k) / N` (the envelope, as the ramp computes it);
+    /// 5. outside Fault, every axis that has been read has a plausible
+    ///    estimate (finite, inside the kernel's absolute bounds) and fewer
+    ///    consecutive invalid samples and following-error ticks than
+    ///    fault them;
+    /// 6. every set-point is finite, with a finite target and a velocity
+    ///    within the joint's speed limit;
+    /// 7. the stream's timing: the recent target intervals are all zero
+    ///    (none yet) or each within the segment range, and the ticks since
+    ///    the last target at most the longest segment.
+    pub fn invariant(&self) -> bool {
+        let faulted = self.mode == Mode::Fault;
+        let latched_ok = faulted == self.fault.is_some();
+        let at_rest = matches!(self.mode, Mode::Boot | Mode::Unhomed | Mode::SoftEstop | Mode::Fault);
+        let outputs_ok = self
+            .last_out
+            .iter()
+            .zip(self.p.axes.iter())
+            .all(|(o, p)| o.is_finite() && o.abs() <= p.vmax && (!at_rest || *o == S::ZERO));
+        let homed_ok = self.mode != Mode::Operational || self.homed == ALL;
+        let phases_ok = self.mode == Mode::Homing || self.axes.iter().all(|a| a.homing.phase() == Phase::Idle);
+        let stop_ok = match self.mode {
+            Mode::Stopping { k, v0, .. } => {
+                let scale = self.stop_scale(k);
+                k <= self.p.stop_ticks
+                    && v0.iter().zip(self.last_out.iter()).zip(self.p.axes.iter()).all(|((v, o), p)| {
+                        let env = v.times(scale);
+                        v.is_finite() && v.abs() <= p.vmax && o.clamp_between(S::ZERO, env) == *o
+                    })
+            }
+            _ => true,
+        };
+        let k = &self.p;
+        let axes_ok = self.axes.iter().zip(k.axes.iter()).all(|(a, p)| {
+            let (x, v) = (a.obs.x, a.obs.v);
+            let plausible = x.is_finite() && v.is_finite() && x.abs() < k.pos_abs && v.abs() < k.vel_abs;
+            let estimate_ok = faulted
+                || !a.ready
+                || a.needs_reinit
+                || (plausible && a.invalid <= k.invalid_limit && a.fe_count <= k.fe_ticks);
+            let it = &a.interp;
+            let interp_ok = it.setpoint().is_finite()
+                && it.target().is_finite()
+                && it.velocity().is_finite()
+                && it.velocity().abs() <= p.vmax;
+            estimate_ok && interp_ok
+        });
+        let (lo, hi) = (k.seg_min, k.seg_max);
+        let timing_ok = (self.intervals == [0; 4] || self.intervals.iter().all(|t| (lo..=hi).contains(t)))
+            && self.since_target.is_none_or(|t| t <= hi);
+        latched_ok && outputs_ok && homed_ok && phases_ok && stop_ok && axes_ok && timing_ok
+    }
+}
+
+#[cfg(feature = "proof-states")]
+pub use self::spec::*;
+
+#[cfg(feature = "proof-states")]
+mod spec {
+    use super::super::axis::Axis;
+    use super::super::supervisor::Mode;
+    use super::super::Kernel;
+    use crate::config::{Validated, AXES};
+    use crate::interp::Interpolator;
+    use crate::observer::{AlphaBeta, Unwrapper};
+    use crate::scalar::Scalar;
+    use crate::types::{Authority, Fault, FaultReason, HomingStatus};
+
+    /// The supervisor's mode in a [`StateSpec`] (Boot and Homing are not
+    /// offered: their state is a run in progress, reached by replay).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub enum SpecMode<S> {
+        /// Homed or not, at rest, no motion accepted.
+        Unhomed,
+        /// Following set-points.
+        Operational,
+        /// The soft-stop ramp at tick `k` from outputs `v0`; `track`: the
+        /// joints follow their braking set-points inside it.
+        Stopping {
+            /// Ramp tick.
+            k: u32,
+            /// Outputs the ramp started from.
+            v0: [S; AXES],
+            /// Following the braking set-points (entered from Operational).
+            track: bool,
+        },
+        /// Latched soft E-stop.
+        SoftEstop,
+        /// Latched fault with this first reason.
+        Fault(FaultReason),
+    }
+
+    /// One axis of a [`StateSpec`].
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct AxisSpec<S> {
+        /// The last encoder reading accepted (the unwrapped count starts there).
+        pub count: u16,
+        /// The zero offset captured by homing (rad).
+        pub zero: S,
+        /// Observer estimate: position (rad) and velocity (rad/s).
+        pub x: S,
+        /// See `x`.
+        pub v: S,
+        /// Set-point, its target, velocity and cruising speed.
+        pub setpoint: S,
+        /// See `setpoint`.
+        pub target: S,
+        /// See `setpoint`.
+        pub sp_velocity: S,
+        /// See `setpoint`.
+        pub speed: S,
+        /// The output applied last tick (rad/s).
+        pub last_out: S,
+        /// The commanded path (rad).
+        pub path: S,
+        /// Consecutive following-error ticks.
+        pub fe_count: u32,
+        /// Consecutive invalid samples.
+        pub invalid: u32,
+    }
+
+    /// A kernel state given field by field, for proofs that start from
+    /// any state satisfying the invariant rather than a replay from
+    /// power-on.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct StateSpec<S> {
+        /// The mode.
+        pub mode: SpecMode<S>,
+        /// Joints homed (bit per joint).
+        pub homed: u8,
+        /// Per-axis state (every axis has been read).
+        pub axes: [AxisSpec<S>; AXES],
+        /// The command timeout is armed, and ticks since the last command.
+        pub armed: bool,
+        /// See `armed`.
+        pub since_cmd: u32,
+        /// Ticks since the last accepted target (`None` after a resync).
+        pub since_target: Option<u32>,
+        /// Recent target intervals (ticks).
+        pub intervals: [u32; 4],
+    }
+
+    impl<S: Scalar> Kernel<S> {
+        /// A kernel in the state `spec` describes, and its authority, if
+        /// that state satisfies [`Kernel::invariant`]. Only with the
+        /// `proof-states` feature, which the firmware and the simulator
+        /// never enable.
+        pub fn from_spec(config: &Validated, spec: &StateSpec<S>) -> Option<(Self, Authority)> {
+            let (mut k, auth) = Kernel::new(config);
+            k.mode = match spec.mode {
+                SpecMode::Unhomed => Mode::Unhomed,
+                SpecMode::Operational => Mode::Operational,
+                SpecMode::Stopping { k, v0, track } => Mode::Stopping { k, v0, then_home: 0, track },
+                SpecMode::SoftEstop => Mode::SoftEstop,
+                SpecMode::Fault(_) => Mode::Fault,
+            };
+            if let SpecMode::Fault(reason) = spec.mode {
+                k.fault = Some(Fault { reason, tick: 0 });
+            }
+            k.homed = spec.homed & super::ALL;
+            k.homing_status = if k.homed == super::ALL { HomingStatus::Complete } else { HomingStatus::NotRequested };
+            for ((ax, s), out) in k.axes.iter_mut().zip(spec.axes.iter()).zip(k.last_out.iter_mut()) {
+                let mut a = Axis::new();
+                a.ready = true;
+                a.unwrap = Unwrapper::new(s.count);
+                a.zero = s.zero;
+                a.obs = AlphaBeta { x: s.x, v: s.v };
+                a.interp = Interpolator::from_parts(s.setpoint, s.target, s.sp_velocity, s.speed);
+                a.path = s.path;
+                a.fe_count = s.fe_count;
+                a.invalid = s.invalid;
+                *ax = a;
+                *out = s.last_out;
+            }
+            k.armed = spec.armed;
+            k.since_cmd = spec.since_cmd;
+            k.since_target = spec.since_target;
+            k.intervals = spec.intervals;
+            if k.invariant() {
+                Some((k, auth))
+            } else {
+                None
+            }
+        }
+    }
+}

@@ -1,0 +1,350 @@
+//! One-step invariants from a **symbolic kernel state** (issue 13, item 1).
+//!
+//! The other harnesses start from states replayed from power-on, one
+//! concrete state each. These start from *any* state that satisfies the
+//! kernel's state invariant (`Kernel::invariant`, `kernel/src/kernel/
+//! invariant.rs`): every continuous value (estimates, set-points, targets,
+//! set-point velocities, last outputs, the ramp's tick and starting
+//! outputs, the commanded paths), the counters (following error, invalid
+//! samples, command timeout, stream timing), the homed mask and the mode
+//! (Unhomed, Operational, Stopping, SoftEstop, Fault with any reason) are
+//! drawn symbolically and built by `Kernel::from_spec` (feature
+//! `proof-states`); a drawn state the invariant rejects is assumed away
+//! (with a `cover!` that some state is kept). Then one tick with any
+//! sensors (any count or a lost sample per encoder, any switches, any
+//! hardware fault, link up or lost) and any request (none, any motion
+//! target, `<HOME>`, `<HOMEn>`, an `<ENABLE>` this kernel's authority
+//! minted). Each harness asserts what the code guarantees for that tick
+//! and that the invariant holds again: with `initial_state_satisfies_
+//! the_invariant_*`, an inductive argument that it holds in every
+//! reachable state of the modes drawn.
+//!
+//! Configuration: the real `PAROL6_VALIDATED` (nothing is replayed, so no
+//! relaxation is needed). Not drawn: Boot and Homing (their state is a run
+//! in progress; the replayed harnesses and the model cover them).
+//!
+//! Unwind: no harness loop here runs more than the six axes (7), the same
+//! as every loop of the code under test (`setup::KERNEL_UNWIND`).
+
+use crate::numeric::any_target;
+use crate::setup::{kernel_loops, Sym};
+use kernel::config::{ms_to_ticks, AXES, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
+use kernel::{
+    Authority, AxisSpec, EncoderSample, FaultReason, HardwareFault, Kernel, Request, Scalar, Sense, SpecMode, State,
+    StateSpec,
+};
+
+/// Ticks of the soft-stop ramp (`Params::new`).
+fn stop_ticks() -> u32 {
+    ms_to_ticks(PAROL6.soft_stop_ms, PAROL6.tick_hz).max(1)
+}
+
+fn vmax<S: Scalar>(i: usize) -> S {
+    S::from_f32(PAROL6.joints[i].max_velocity)
+}
+
+/// Any value with `lo <= v <= hi` (finite bounds). Symbolically: any value
+/// and an assumption. Sampled: mostly a fraction of the interval, so few
+/// draws are discarded, and now and then a raw draw (its boundary values,
+/// NaN, infinities) for the assumption to judge.
+fn any_between<S: Sym>(lo: S, hi: S) -> S {
+    any_between_mostly(lo, hi, (lo, hi), false)
+}
+
+/// [`any_between`], and for sampling, inside the narrower `typical`
+/// interval when `typ` (drawn once per state, so that whole states are
+/// typical: estimates slow enough and inside the limits for an enable).
+/// Symbolically the same: any value in `[lo, hi]`.
+fn any_between_mostly<S: Sym>(lo: S, hi: S, typical: (S, S), typ: bool) -> S {
+    #[cfg(kani)]
+    let v = {
+        let _ = (typical, typ);
+        S::any()
+    };
+    #[cfg(not(kani))]
+    let v = if kani::any::<u8>() == 7 {
+        S::any()
+    } else {
+        let (a, b) = if typ { typical } else { (lo, hi) };
+        let f = S::from_f32(f32::from(kani::any::<u16>()) / 65535.0);
+        a.plus(b.minus(a).times(f)).clamp_between(a, b)
+    };
+    kani::assume(v.is_finite() && v >= lo && v <= hi);
+    v
+}
+
+/// The soft-stop envelope at ramp tick `k` from `v0`, as the kernel's ramp
+/// computes it (`(N - k) / N` from the reciprocal of N).
+fn envelope<S: Scalar>(v0: S, k: u32) -> S {
+    let n = stop_ticks();
+    let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
+    let scale = S::from_f32(1.0 / n as f32).times_int(left).min(S::ONE).max(S::ZERO);
+    v0.times(scale)
+}
+
+/// The modes a harness draws from.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Draw {
+    Operational,
+    Stopping,
+    Latched,
+}
+
+/// Any state of the kind `draw` that the invariant admits, built by
+/// `Kernel::from_spec`, and its authority.
+#[cfg_attr(not(kani), kani::loops)]
+fn any_state<S: Sym>(draw: Draw) -> (Kernel<S>, Authority, StateSpec<S>) {
+    kernel_loops();
+    let n = stop_ticks();
+    // Any tick of the ramp; for sampling, half of the draws at its last two.
+    let k: u32 = if kani::any() { kani::any::<u32>() % (n + 1) } else { n - kani::any::<u32>() % 2 };
+    let mut v0 = [S::ZERO; AXES];
+    let mode = match draw {
+        Draw::Operational => SpecMode::Operational,
+        Draw::Stopping => {
+            for i in 0..AXES {
+                v0[i] = any_between(vmax::<S>(i).neg(), vmax(i));
+            }
+            SpecMode::Stopping { k, v0, track: kani::any() }
+        }
+        Draw::Latched => match kani::any::<u8>() % 3 {
+            0 => SpecMode::Unhomed,
+            1 => SpecMode::SoftEstop,
+            _ => SpecMode::Fault(FaultReason::Runaway { axis: kani::any::<u8>() % AXES as u8 }),
+        },
+    };
+    let big = S::from_f32(POSITION_ABS_MAX);
+    let cfg = &PAROL6;
+    let typ: bool = kani::any();
+    let mut axes = [AxisSpec {
+        count: 0,
+        zero: S::ZERO,
+        x: S::ZERO,
+        v: S::ZERO,
+        setpoint: S::ZERO,
+        target: S::ZERO,
+        sp_velocity: S::ZERO,
+        speed: S::ZERO,
+        last_out: S::ZERO,
+        path: S::ZERO,
+        fe_count: 0,
+        invalid: 0,
+    }; AXES];
+    for i in 0..AXES {
+        let vm = vmax::<S>(i);
+        let a = &mut axes[i];
+        a.count = kani::any::<u16>() % 4096;
+        a.zero = any_between(big.neg(), big);
+        let j = &cfg.joints[i];
+        let inside = (S::from_f32(j.limit_min), S::from_f32(j.limit_max));
+        a.x = any_between_mostly(big.neg(), big, inside, typ);
+        a.v = any_between_mostly(S::from_f32(-64.0), S::from_f32(64.0), (vm.neg(), vm), typ);
+        // Sampling: a typical state's estimate is where its encoder reads
+        // (the zero offset chosen so), so an enable can find no cause.
+        #[cfg(not(kani))]
+        if typ {
+            let sign = if j.encoder_reversed { -1.0 } else { 1.0 };
+            let measured = (f64::from(a.count) * j.rad_per_count() * sign) as f32;
+            a.zero = a.x.minus(S::from_f32(measured));
+        }
+        a.setpoint = any_between(big.neg(), big);
+        a.target = any_between(big.neg(), big);
+        a.sp_velocity = any_between(vm.neg(), vm);
+        a.speed = any_between(S::ZERO, big);
+        a.path = any_between(big.neg(), big);
+        a.fe_count = kani::any::<u32>() % (ms_to_ticks(cfg.following_error_ms, cfg.tick_hz) + 1);
+        a.invalid = kani::any::<u32>() % (cfg.encoder_invalid_limit + 1);
+        a.last_out = match draw {
+            Draw::Operational => any_between(vm.neg(), vm),
+            Draw::Stopping => {
+                let env = envelope(v0[i], k);
+                any_between(env.min(S::ZERO), env.max(S::ZERO))
+            }
+            Draw::Latched => S::ZERO,
+        };
+    }
+    let seg = (ms_to_ticks(cfg.segment_min_ms, cfg.tick_hz), ms_to_ticks(cfg.segment_max_ms, cfg.tick_hz));
+    let interval = || seg.0 + kani::any::<u32>() % (seg.1 - seg.0 + 1);
+    let intervals = if kani::any() { [0; 4] } else { [interval(), interval(), interval(), interval()] };
+    let spec = StateSpec {
+        mode,
+        homed: if draw == Draw::Latched { kani::any::<u8>() & 0x3f } else { 0x3f },
+        axes,
+        armed: kani::any(),
+        since_cmd: kani::any::<u32>() % 1000,
+        since_target: if kani::any() { Some(kani::any::<u32>() % (seg.1 + 1)) } else { None },
+        intervals,
+    };
+    let built = Kernel::from_spec(&PAROL6_VALIDATED, &spec);
+    kani::cover!(built.is_some(), "the invariant admits a drawn state");
+    kani::assume(built.is_some());
+    let Some((kernel, auth)) = built else { unreachable!("assumed") };
+    (kernel, auth, spec)
+}
+
+/// Any sensors: per encoder any count (also out of range) or a lost
+/// sample, any switches, any hardware fault, the link up or lost. (For
+/// sampling, half of the draws read every encoder within a few counts of
+/// its last reading; symbolically this is still any count.)
+#[cfg_attr(not(kani), kani::loops)]
+fn any_sense<S>(spec: &StateSpec<S>) -> Sense {
+    let mut encoders = [EncoderSample::Lost; AXES];
+    let near: bool = kani::any();
+    for (e, a) in encoders.iter_mut().zip(spec.axes.iter()) {
+        if near {
+            let d = i32::from(kani::any::<i8>() % 8);
+            *e = EncoderSample::Count((i32::from(a.count) + d).rem_euclid(4096) as u16);
+        } else if !kani::any::<u8>().is_multiple_of(8) {
+            *e = EncoderSample::Count(kani::any());
+        }
+    }
+    Sense {
+        encoders,
+        // Mostly no switch, so that the other antecedents are sampled too.
+        limits: if kani::any() { 0 } else { kani::any() },
+        hardware_fault: if kani::any::<u8>().is_multiple_of(8) { Some(HardwareFault::TickOverrun) } else { None },
+        link_lost: kani::any::<u8>().is_multiple_of(8),
+    }
+}
+
+/// Any request: none, any motion target, `<HOME>`, `<HOMEn>`, or an
+/// `<ENABLE>` minted by this kernel's authority.
+fn any_request<S: Sym>(auth: &Authority) -> Option<Request<S>> {
+    match kani::any::<u8>() % 5 {
+        0 => None,
+        1 => Some(Request::Motion(any_target::<S>())),
+        2 => Some(Request::Home),
+        3 => Some(Request::HomeJoint(kani::any::<u8>() % 8)),
+        _ => Some(Request::Enable(auth.enable())),
+    }
+}
+
+/// One tick from any admitted state of the kind `draw`; asserts what every
+/// tick guarantees, and returns what the caller needs for its own claims.
+#[cfg_attr(not(kani), kani::loops)]
+fn step<S: Sym>(draw: Draw) {
+    let (mut k, auth, spec) = any_state::<S>(draw);
+    let before = k.state();
+    let prev = k.last_output();
+    let sense = any_sense(&spec);
+    let req = any_request::<S>(&auth);
+    let enable = matches!(req, Some(Request::Enable(_)));
+    let home = matches!(req, Some(Request::Home | Request::HomeJoint(_)));
+    let o = k.tick(&sense, req);
+    let after = o.status.state;
+    let out = o.act.velocity;
+
+    // SR-2: every output finite and within its joint's speed limit.
+    for i in 0..AXES {
+        assert!(out[i].is_finite() && out[i].abs() <= vmax::<S>(i));
+    }
+    // SR-4, SR-5: a fault zeroes every axis in the same tick, and is latched
+    // with a reason.
+    kani::cover!(after == State::Fault, "a fault");
+    if after == State::Fault {
+        assert!(out.iter().all(|v| *v == S::ZERO) && o.act.step_rate.iter().all(|r| *r == 0));
+        assert!(o.status.fault.is_some());
+    }
+    // SR-21: a hardware fault faults in the same tick, in every state.
+    kani::cover!(sense.hardware_fault.is_some(), "a hardware fault (SR-21 antecedent)");
+    if sense.hardware_fault.is_some() {
+        assert!(after == State::Fault);
+    }
+    // SR-10: a pressed switch faults in Operational, Stopping and SoftEstop
+    // (a `<HOME>` accepted in the same tick makes it a homing input).
+    let pressed = sense.limits & 0x3f != 0;
+    let guarded = matches!(before, State::Operational | State::Stopping | State::SoftEstop);
+    kani::cover!(pressed && guarded && !home, "a switch pressed in a guarded state (SR-10 antecedent)");
+    if pressed && guarded && !home {
+        assert!(after == State::Fault);
+    }
+    // SR-9: an estimate faster than the runaway threshold faults.
+    for i in 0..AXES {
+        let runaway = S::from_f32(PAROL6.joints[i].runaway_velocity);
+        if o.status.velocity[i].abs() > runaway {
+            kani::cover!(true, "an estimate beyond the runaway threshold (SR-9 antecedent)");
+            assert!(after == State::Fault);
+        }
+    }
+    // SR-5: only an accepted `<ENABLE>` leaves a latch (a new cause may turn
+    // SoftEstop into Fault).
+    if matches!(before, State::SoftEstop | State::Fault) && !enable {
+        kani::cover!(true, "a latch and no enable (SR-5 antecedent)");
+        assert!(after == before || after == State::Fault);
+    }
+    if draw == Draw::Latched {
+        kani::cover!(
+            matches!(before, State::SoftEstop | State::Fault)
+                && enable
+                && !matches!(after, State::SoftEstop | State::Fault),
+            "an enable clears a latch"
+        );
+    }
+    // SR-25: Operational to Operational, each output within one
+    // acceleration step of the last (exactly the clamp the code applies).
+    if before == State::Operational && after == State::Operational {
+        kani::cover!(out != prev, "an operational tick that changes an output");
+        for i in 0..AXES {
+            let a = S::from_f32(PAROL6.joints[i].max_acceleration / PAROL6.tick_hz as f32);
+            assert!(out[i] >= prev[i].minus(a) && out[i] <= prev[i].plus(a));
+        }
+    }
+    // SR-7: inside a soft stop each output stays between zero and the last
+    // one (never grows, never reverses), and the ramp's last tick is exactly
+    // zero on every axis together.
+    if let SpecMode::Stopping { k: ramp_k, .. } = spec.mode {
+        if after != State::Fault {
+            for i in 0..AXES {
+                assert!(out[i].clamp_between(S::ZERO, prev[i]) == out[i]);
+            }
+            kani::cover!(ramp_k + 1 >= stop_ticks(), "the ramp's last tick");
+            if ramp_k + 1 >= stop_ticks() {
+                assert!(out.iter().all(|v| *v == S::ZERO));
+                assert!(after == State::SoftEstop);
+            }
+        }
+    }
+    // The invariant holds again (the inductive step).
+    assert!(k.invariant());
+}
+
+/// The induction's base: the state `Kernel::new` builds satisfies the
+/// invariant (both variants, the real configuration).
+#[kani::proof]
+#[kani::unwind(7)] // the invariant's loops run over the six axes
+fn initial_state_satisfies_the_invariant() {
+    kernel_loops();
+    assert!(Kernel::<f32>::new(&PAROL6_VALIDATED).0.invariant());
+    assert!(Kernel::<kernel::Fx>::new(&PAROL6_VALIDATED).0.invariant());
+}
+
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_any_operational_state_f32() {
+    step::<f32>(Draw::Operational);
+}
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_any_operational_state_fx() {
+    step::<kernel::Fx>(Draw::Operational);
+}
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_any_stopping_state_f32() {
+    step::<f32>(Draw::Stopping);
+}
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_any_stopping_state_fx() {
+    step::<kernel::Fx>(Draw::Stopping);
+}
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_any_latched_or_unhomed_state_f32() {
+    step::<f32>(Draw::Latched);
+}
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_any_latched_or_unhomed_state_fx() {
+    step::<kernel::Fx>(Draw::Latched);
+}
