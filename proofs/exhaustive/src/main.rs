@@ -179,7 +179,7 @@ fn main() {
         let k = kernel::interp::profile::<Fx>(vmax, amax, PAROL6.tick_hz);
         let dv = k.dv;
         results.push(sweep(
-            "SR-18",
+            "SR-18/27",
             "slice",
             format!(
                 "set-point I8F24: first step from rest at 0 toward every target, cruising at vmax {vmax}, amax {amax} (J{joints:?})"
