@@ -31,7 +31,7 @@ use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
 use hal_imxrt::pure::step::{StepCommand, StepConfig};
 use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
-use kernel::{Authority, Event, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State, TickOutput};
+use kernel::{Actuation, Authority, Event, Events, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State};
 use protocol::feedback::{FeedbackDivider, FeedbackMode};
 use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
 use protocol::receiver::{Counters, Received, Receiver};
@@ -124,11 +124,15 @@ pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Co
     (controller, host)
 }
 
-/// What one tick did (the image ignores it; the simulator records it).
+/// What one tick did (the image ignores it; the simulator records it, and
+/// reads the status from [`Controller::kernel`] when it wants it: the tick
+/// builds one only when telemetry is due).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickRecord {
-    /// The kernel's output.
-    pub out: TickOutput<f32>,
+    /// The kernel's checked outputs.
+    pub act: Actuation<f32>,
+    /// The kernel's events.
+    pub events: Events,
     /// The request handed to the kernel, if any.
     pub request: Option<RequestKind>,
     /// The motion target of that request, if it was one.
@@ -236,32 +240,35 @@ impl Controller<'_> {
         let request = cmd.map(|c| c.into_request(authority));
         let kind = request.as_ref().map(|r| r.kind());
         // 3. kernel
-        let out = self.kernel.tick(&sense, request);
+        let mut act = Actuation::zero();
+        let mut events = Events::new();
+        self.kernel.tick_into(&sense, request, &mut act, &mut events);
         // 4. act (all six or none)
-        let (cmds, refused) = crate::act(&out.act.step_rate, &self.step_cfg);
+        let (cmds, refused) = crate::act(&act.step_rate, &self.step_cfg);
         board.apply(&cmds);
         if let Some(axis) = refused {
             self.pending_fault = Some(HardwareFault::Driver { axis });
         }
         // 5. telemetry (never blocks; losses are counted by the link)
         if let Some(seq) = seq {
-            let refused = out.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
+            let refused = events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
             if !refused {
                 self.ack = seq;
             }
         }
-        for e in out.events.iter() {
+        for e in events.iter() {
             self.link.send(Telemetry::Event(*e));
         }
-        if out.events.dropped() > 0 {
-            self.link.send(Telemetry::EventsLost(out.events.dropped()));
+        if events.dropped() > 0 {
+            self.link.send(Telemetry::EventsLost(events.dropped()));
         }
         if self.divider.tick() {
-            self.link.send(Telemetry::Status { status: out.status, tick_us: self.last_us, ack: self.ack });
+            let status = self.kernel.status(sense.limits);
+            self.link.send(Telemetry::Status { status, tick_us: self.last_us, ack: self.ack });
         }
         // 6. reset policy: a latched tracker re-acquires while the kernel
         // holds a fault; ENABLE then re-initialises the axis (re-homing).
-        if out.status.state == State::Fault {
+        if self.kernel.state() == State::Fault {
             for ch in self.channels.iter_mut() {
                 let _ = ch.on_fault_held();
             }
@@ -271,7 +278,7 @@ impl Controller<'_> {
             self.pending_fault = Some(HardwareFault::TickOverrun);
         }
         self.last_us = crate::cycles_to_us(board.cycles().wrapping_sub(t0));
-        TickRecord { out, request: kind, target, sense, readings, cmds }
+        TickRecord { act, events, request: kind, target, sense, readings, cmds }
     }
 
     /// The kernel (read-only).

@@ -152,47 +152,66 @@ impl<S: Scalar> Kernel<S> {
     }
 
     /// One control tick: sense, estimate, handle at most one request,
-    /// supervise, and return the checked outputs for every axis.
+    /// supervise, and return the checked outputs for every axis, the
+    /// status and the events. [`Kernel::tick_into`] with caller-owned
+    /// storage and [`Kernel::status`].
     pub fn tick(&mut self, sense: &Sense, request: Option<Request<S>>) -> TickOutput<S> {
+        let mut act = Actuation::zero();
+        let mut events = Events::new();
+        self.tick_into(sense, request, &mut act, &mut events);
+        TickOutput { act, status: self.status(sense.limits), events }
+    }
+
+    /// One control tick, writing the checked outputs of every axis into
+    /// `act` and this tick's events into `events` (cleared first). Every
+    /// output is computed and checked before any is written. The status is
+    /// built only on request ([`Kernel::status`]), when telemetry is due.
+    pub fn tick_into(
+        &mut self,
+        sense: &Sense,
+        request: Option<Request<S>>,
+        act: &mut Actuation<S>,
+        events: &mut Events,
+    ) {
         self.tick = self.tick.wrapping_add(1);
         let cap = self.p.seg_max;
         self.since_target = self.since_target.map(|t| t.saturating_add(1).min(cap));
-        let mut events = Events::new();
+        events.clear();
         let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware);
         let limits = sense.limits & ALL;
 
         // 1-2. Sense and estimate (axis.rs); leave Boot once every encoder
         // has been read (supervisor.rs).
         self.sense_and_estimate(sense, &mut fault);
-        self.boot(&mut fault, &mut events);
+        self.boot(&mut fault, events);
 
         // Requests are handled after estimation, so they see this tick's
         // measurements, and before supervision, so their effect is checked
         // (intake.rs).
-        self.intake(request, sense, fault, &mut events);
+        self.intake(request, sense, fault, events);
 
         // A lost host link stops a moving arm at once (supervisor.rs).
         if sense.link_lost {
-            self.link_lost(&mut events);
+            self.link_lost(events);
         }
 
         // 3. Supervise: candidate outputs for every axis, then the checks
         // (supervisor.rs).
-        let mut out = self.supervise(limits, &mut fault, &mut events);
+        let mut out = self.supervise(limits, &mut fault, events);
 
         // Latch the first fault; every output is zero in the same tick.
-        self.latch(fault, &mut out, &mut events);
+        self.latch(fault, &mut out, events);
 
         // 4. Act: every output was computed and checked above.
         self.last_out = out;
-        let mut step_rate = [0i32; AXES];
-        for ((r, v), p) in step_rate.iter_mut().zip(out.iter()).zip(self.p.axes.iter()) {
+        act.velocity = out;
+        for ((r, v), p) in act.step_rate.iter_mut().zip(out.iter()).zip(self.p.axes.iter()) {
             *r = v.to_rate(p.k_rate);
         }
-        TickOutput { act: Actuation { velocity: out, step_rate }, status: self.status(limits), events }
     }
 
-    fn status(&self, limits: u8) -> Status<S> {
+    /// The status to report, given the limit switches sensed this tick.
+    pub fn status(&self, limits: u8) -> Status<S> {
         Status {
             state: self.state(),
             homing: self.homing_status,
@@ -200,7 +219,7 @@ impl<S: Scalar> Kernel<S> {
             position: self.axes.map(|a| a.obs.x),
             velocity: self.axes.map(|a| a.obs.v),
             setpoint: self.axes.map(|a| a.interp.setpoint()),
-            limits,
+            limits: limits & ALL,
             homed: self.homed,
             timeout_armed: self.armed,
             tick: self.tick,

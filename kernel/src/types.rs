@@ -4,6 +4,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use crate::config::AXES;
 use crate::homing::Phase;
+use crate::scalar::Scalar;
 
 /// One encoder reading as delivered by the HAL.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -476,9 +477,20 @@ pub struct Events {
     dropped: u8,
 }
 
+impl Default for Events {
+    fn default() -> Self {
+        Events::new()
+    }
+}
+
 impl Events {
-    pub(crate) const fn new() -> Self {
+    /// No events.
+    pub const fn new() -> Self {
         Events { list: [None; MAX_EVENTS], len: 0, dropped: 0 }
+    }
+    /// Forgets every event (the start of a tick).
+    pub fn clear(&mut self) {
+        *self = Events::new();
     }
     pub(crate) fn push(&mut self, e: Event) {
         match self.list.get_mut(usize::from(self.len)) {
@@ -514,6 +526,13 @@ pub struct Actuation<S> {
     pub velocity: [S; AXES],
     /// Signed step rates (steps/s), motor direction applied.
     pub step_rate: [i32; AXES],
+}
+
+impl<S: Scalar> Actuation<S> {
+    /// Every axis at rest.
+    pub fn zero() -> Self {
+        Actuation { velocity: [S::ZERO; AXES], step_rate: [0; AXES] }
+    }
 }
 
 /// What to report to the host.

@@ -233,7 +233,11 @@ impl Root {
         }
         let step = Step {
             t_ms: self.t_ms,
-            out: rec.out,
+            out: TickOutput {
+                act: rec.act,
+                status: self.controller.kernel().status(rec.sense.limits),
+                events: rec.events,
+            },
             request: rec.request,
             target: rec.target,
             sense: rec.sense,

@@ -23,7 +23,7 @@
 use core::fmt::{self, Write};
 
 use kernel::config::{Validated, AXES};
-use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Scalar, Sense, TickOutput};
+use kernel::{Actuation, EncoderSample, Events, Fx, HardwareFault, Kernel, Scalar, Sense, TickOutput};
 use protocol::{Command, DialectLock, ParseError, Parser};
 
 /// Magic bytes at the start of a scenario.
@@ -274,12 +274,19 @@ fn format_parse<S: Bits>(w: &mut LineBuf, r: &Result<Command<S>, ParseError>) ->
     }
 }
 
-/// `Kernel::tick`, kept out of line so its stack frame is its own (the
-/// target measures the stack used below the caller) and the measured region
-/// is one call.
+/// `Kernel::tick_into` (the call the firmware makes: outputs and events
+/// into caller-owned storage, no status), kept out of line so its stack
+/// frame is its own (the target measures the stack used below the caller)
+/// and the measured region is one call.
 #[inline(never)]
-pub fn tick<S: Scalar>(k: &mut Kernel<S>, sense: &Sense, request: Option<kernel::Request<S>>) -> TickOutput<S> {
-    k.tick(sense, request)
+pub fn tick<S: Scalar>(
+    k: &mut Kernel<S>,
+    sense: &Sense,
+    request: Option<kernel::Request<S>>,
+    act: &mut Actuation<S>,
+    events: &mut Events,
+) {
+    k.tick_into(sense, request, act, events)
 }
 
 /// Replays `scenario` through a fresh `Kernel<S>` built from `config`, and a
@@ -295,6 +302,8 @@ pub fn replay<S: Bits, H: Hooks>(config: &Validated, scenario: &[u8], hooks: &mu
     // Running checksum (FNV-1a over every line) for a one-line summary.
     let mut fnv: u32 = 0x811c_9dc5;
     let mut n = 0u32;
+    let mut act = Actuation::zero();
+    let mut events = Events::new();
     while let Some(input) = rd.next_tick()? {
         w.clear();
         let request = match input.frame {
@@ -309,8 +318,12 @@ pub fn replay<S: Bits, H: Hooks>(config: &Validated, scenario: &[u8], hooks: &mu
         };
         let mut head = LineBuf::new();
         hooks.before_tick();
-        let out = core::hint::black_box(tick(&mut kernel, core::hint::black_box(&input.sense), request));
+        tick(&mut kernel, core::hint::black_box(&input.sense), request, &mut act, &mut events);
         hooks.after_tick();
+        // The status is built outside the measured region, as the firmware
+        // builds it only when telemetry is due.
+        let out = TickOutput { act, status: kernel.status(input.sense.limits), events };
+        let out = core::hint::black_box(out);
         let _ = format_tick(&mut head, n, &out);
         let _ = head.write_str(w.as_str());
         if head.overflow {
