@@ -87,6 +87,9 @@ print(f"ITCM code: {itcm} B   DTCM: .data {s('.data')} + .bss {s('.bss')} + stac
 print(f"OCRAM: .rodata {s('.rodata')} (copied from flash) + .uninit {s('.uninit')} + heap {s('.heap')} (unused) B")
 PY
 
+echo "== flash bytes by crate (firmware/tools/size_by_crate.py)"
+python3 "$ROOT/firmware/tools/size_by_crate.py" "$BIN/llvm-nm" "$OUT/parol6.elf" || echo "(size by crate failed)"
+
 echo "== tick handler: panic paths and stack"
 STACK_ELF=""
 if [ "$HAVE_NIGHTLY" = 1 ]; then
