@@ -24,7 +24,7 @@ pub mod tx;
 
 use hal_imxrt::pure::debounce::LimitState;
 use hal_imxrt::pure::encoder::EncoderReading;
-use hal_imxrt::pure::step::{step_command, StepCommand, StepConfig};
+use hal_imxrt::pure::step::{StepCommand, StepPlan};
 use kernel::config::AXES;
 use kernel::{EncoderSample, HardwareFault, Sense};
 
@@ -71,10 +71,10 @@ pub fn sense(
 /// which a consistent configuration never asks for), every axis gets
 /// `Stop` and the first such axis is returned, to be reported to the kernel
 /// as [`HardwareFault::Driver`] on the next tick.
-pub fn act(rates: &[i32; AXES], cfg: &StepConfig) -> ([StepCommand; AXES], Option<u8>) {
+pub fn act(rates: &[i32; AXES], plan: &StepPlan) -> ([StepCommand; AXES], Option<u8>) {
     let mut out = [StepCommand::Stop; AXES];
     for (i, (o, &r)) in out.iter_mut().zip(rates.iter()).enumerate() {
-        match step_command(r.saturating_mul(1000), cfg) {
+        match plan.command(r.saturating_mul(1000)) {
             Ok(c) => *o = c,
             Err(_) => return ([StepCommand::Stop; AXES], Some(i as u8)),
         }
@@ -133,7 +133,7 @@ pub fn encoder_self_test(last: &[EncoderReading; AXES]) -> u8 {
 mod tests {
     use super::*;
     use hal_imxrt::pure::encoder::LossReason;
-    use hal_imxrt::pure::step::{achieved_rate_mhz, Direction};
+    use hal_imxrt::pure::step::{achieved_rate_mhz, Direction, StepConfig};
     use kernel::config::PAROL6;
 
     #[test]
@@ -174,7 +174,7 @@ mod tests {
     fn act_maps_every_axis_and_sign() {
         let cfg = StepConfig::DEFAULT;
         let rates = [0, 19, 20, -20, 110_592, -50_000];
-        let (cmds, err) = act(&rates, &cfg);
+        let (cmds, err) = act(&rates, &StepPlan::DEFAULT);
         assert_eq!(err, None);
         assert_eq!(cmds[0], StepCommand::Stop);
         assert_eq!(cmds[1], StepCommand::Stop); // below the 20 steps/s minimum
@@ -189,7 +189,7 @@ mod tests {
 
     #[test]
     fn act_is_all_or_nothing() {
-        let cfg = StepConfig::DEFAULT;
+        let cfg = StepPlan::DEFAULT;
         let (cmds, err) = act(&[1000, 1000, 1000, 300_000, 1000, 1000], &cfg);
         assert_eq!(err, Some(3));
         assert!(cmds.iter().all(|c| *c == StepCommand::Stop));
@@ -203,7 +203,7 @@ mod tests {
         // Every joint's max velocity, in steps/s, must be programmable.
         for j in PAROL6.joints.iter() {
             let max = (f64::from(j.max_velocity) * j.steps_per_rad()).ceil() as i32;
-            let (_, err) = act(&[max, -max, 0, 0, 0, 0], &StepConfig::DEFAULT);
+            let (_, err) = act(&[max, -max, 0, 0, 0, 0], &StepPlan::DEFAULT);
             assert_eq!(err, None, "{max}");
         }
     }

@@ -28,7 +28,7 @@
 use hal_imxrt::pure::channel::EncoderChannel;
 use hal_imxrt::pure::debounce::{Debounce, LimitState};
 use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
-use hal_imxrt::pure::step::{StepCommand, StepConfig};
+use hal_imxrt::pure::step::{StepCommand, StepPlan};
 use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
 use kernel::{Actuation, Authority, Event, Events, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State};
@@ -106,7 +106,7 @@ pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Co
         debounce: [Debounce::new(); AXES],
         link: tick_end,
         divider: FeedbackDivider::default_for(cfg.config().tick_hz),
-        step_cfg: StepConfig::DEFAULT,
+        step_cfg: StepPlan::DEFAULT,
         pending_fault: None,
         last_us: 0,
         ack: 0,
@@ -164,7 +164,7 @@ pub struct Controller<'a> {
     debounce: [Debounce; AXES],
     link: TickEnd<'a, f32, CMD_SLOTS, TEL_SLOTS>,
     divider: FeedbackDivider,
-    step_cfg: StepConfig,
+    step_cfg: StepPlan,
     pending_fault: Option<HardwareFault>,
     last_us: u32,
     ack: u32,

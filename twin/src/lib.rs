@@ -41,3 +41,18 @@ pub fn boot_twin() -> Result<Twin, String> {
     let elf = load_image()?;
     Twin::new(&elf, Plant::new(&kernel::config::PAROL6, START_Q))
 }
+
+/// One line summarising the instructions of each PIT handler call (the
+/// whole tick interrupt), or `None` if there was none.
+pub fn pit_instruction_summary(calls: &[u64]) -> Option<String> {
+    let mut v = calls.to_vec();
+    v.sort_unstable();
+    let (min, max) = (*v.first()?, *v.last()?);
+    let median = v[v.len() / 2];
+    let mean = v.iter().sum::<u64>() as f64 / v.len() as f64;
+    Some(format!(
+        "PIT handler (whole tick interrupt), instructions per call over {} calls: min {min}, median {median}, max {max}, mean {mean:.0}, max/min {:.2}",
+        v.len(),
+        max as f64 / min.max(1) as f64
+    ))
+}

@@ -51,6 +51,10 @@ pub struct Stats {
     pub pit_calls: u64,
     /// Time (cycles) of each PIT handler entry (bounded).
     pub pit_entries: Vec<u64>,
+    /// Instructions executed by each PIT handler call, entry to return
+    /// (bounded): the whole interrupt (sense mapping, kernel tick, step
+    /// commands, telemetry push, watchdog), as issue 14 asks.
+    pub pit_instructions: Vec<u64>,
     /// Stops where the CPU did not halt at the block that requested the
     /// stop (would mean a miscounted block; expected 0).
     pub stop_mismatch: u64,
@@ -310,6 +314,12 @@ impl Twin {
                     return Err(self.fault("returned to the sentinel outside a handler".into()));
                 };
                 self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
+                if let Some(&entry) = self.stats.pit_entries.last() {
+                    if self.stats.pit_instructions.len() < self.stats.pit_entries.len() {
+                        let n = self.now().saturating_sub(entry);
+                        self.stats.pit_instructions.push(n);
+                    }
+                }
             }
         }
         // bring the peripherals and the plant up to the end time (a CPU

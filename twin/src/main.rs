@@ -71,6 +71,9 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         "main reached at {:?} instructions; PIT handler calls {}; watchdog refreshes {}; watchdog resets {}; hints patched {}; stops deferred out of IT blocks {}; stop mismatches {}",
         b.main_at, t.stats.pit_calls, b.wdog.refreshes, t.stats.watchdog_resets, b.hints_patched, b.it_deferred, t.stats.stop_mismatch
     );
+    if let Some(line) = twin::pit_instruction_summary(&t.stats.pit_instructions) {
+        println!("{line}");
+    }
     println!(
         "idle main loop skipped: {} times, {:.1} % of simulated time (TWIN_NO_IDLE_SKIP=1 turns it off)",
         t.stats.idle_skips,
@@ -94,6 +97,9 @@ fn run_scenario(file: &str) -> Result<(), String> {
         println!("{}: {:?}", a.name(), o.anchors[a.index()]);
     }
     println!("q at {} ms = {:?}", o.end_ms, o.q);
+    if let Some(line) = twin::pit_instruction_summary(&o.pit_instructions) {
+        println!("{line}");
+    }
     println!(
         "simulated {:.1} s in {:.1} s wall ({:.2} x real time)",
         o.end_ms as f64 / 1000.0,

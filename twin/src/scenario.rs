@@ -37,6 +37,8 @@ pub struct Outcome {
     pub skipped: Vec<String>,
     /// Wall-clock seconds.
     pub wall_s: f64,
+    /// Instructions of each PIT handler call (the whole tick interrupt).
+    pub pit_instructions: Vec<u64>,
 }
 
 /// The anchor an event line marks. The simulator's `estop` anchor is the
@@ -207,5 +209,6 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
     out.end_ms = ms;
     out.q = t.board().plant.q();
     out.wall_s = wall.elapsed().as_secs_f64();
+    out.pit_instructions = t.stats.pit_instructions.clone();
     Ok(out)
 }

@@ -146,8 +146,159 @@ pub enum StepRateError {
     BadConfig,
 }
 
-/// Signed rate (milli-steps/s) -> step generator command.
+/// Signed rate (milli-steps/s) -> step generator command: checks `cfg`
+/// ([`StepPlan::new`]) and converts ([`StepPlan::command`]). The tick uses
+/// a `StepPlan` built once, at compile time, and pays for no check and no
+/// division.
 pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand, StepRateError> {
+    match StepPlan::new(cfg) {
+        Some(plan) => plan.command(rate_mhz),
+        None => Err(StepRateError::BadConfig),
+    }
+}
+
+/// Largest `max_rate_mhz` a [`StepPlan`] accepts: 2^28 milli-steps/s
+/// (268 ksteps/s), so a divisor fits in 28 bits and the period's division
+/// runs on the core's 32-bit divider (see [`StepPlan::command`]).
+pub const PLAN_MAX_RATE_MHZ: u32 = 1 << 28;
+
+/// A checked [`StepConfig`] with every constant the conversion of a rate
+/// needs computed once: [`StepPlan::command`] runs in the tick interrupt
+/// with no 64-bit division (the C++ firmware, and this HAL before issue 14,
+/// divided 64-bit numbers up to 8 times per axis per tick).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepPlan {
+    min_rate_mhz: u32,
+    max_rate_mhz: u32,
+    /// `timer_hz * 1000`: timer counts per second, times 1000 (the rates
+    /// are in milli-steps per second).
+    clk_x1000: u64,
+    /// `fits[p]`: the smallest rate whose period at prescaler `2^p` fits in
+    /// 16 bits (`round(clk_x1000 / (rate 2^p)) <= 65535`); `u32::MAX` if
+    /// none does.
+    fits: [u32; 8],
+    /// STEP high time at each prescaler, timer counts (at least 1).
+    pulse: [u16; 8],
+}
+
+impl StepPlan {
+    /// The plan of the PAROL6 board ([`StepConfig::DEFAULT`]).
+    pub const DEFAULT: StepPlan = match StepPlan::new(&StepConfig::DEFAULT) {
+        Some(p) => p,
+        None => panic!("StepConfig::DEFAULT is not valid"),
+    };
+
+    /// `None` if `cfg` is not valid ([`StepConfig::is_valid`]) or its
+    /// maximum rate is not below [`PLAN_MAX_RATE_MHZ`].
+    pub const fn new(cfg: &StepConfig) -> Option<StepPlan> {
+        if !cfg.is_valid() || cfg.max_rate_mhz >= PLAN_MAX_RATE_MHZ {
+            return None;
+        }
+        let clk_x1000 = cfg.timer_hz as u64 * 1000;
+        let mut fits = [u32::MAX; 8];
+        let mut pulse = [1u16; 8];
+        let mut p = 0;
+        while p < 8 {
+            // The period at prescaler 2^p fits iff
+            // clk + den / 2 < den * 65536 with den = rate * 2^p, which is
+            // monotone in the rate: binary search for the smallest rate.
+            let (mut lo, mut hi) = (1u64, PLAN_MAX_RATE_MHZ as u64);
+            if period_fits(clk_x1000, hi << p) {
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if period_fits(clk_x1000, mid << p) {
+                        hi = mid;
+                    } else {
+                        lo = mid + 1;
+                    }
+                }
+                fits[p] = lo as u32;
+            }
+            let c = counts_ceil(cfg.pulse_ns, cfg.timer_hz >> p);
+            pulse[p] = if c == 0 { 1 } else { c as u16 };
+            p += 1;
+        }
+        Some(StepPlan { min_rate_mhz: cfg.min_rate_mhz, max_rate_mhz: cfg.max_rate_mhz, clk_x1000, fits, pulse })
+    }
+
+    /// Signed rate (milli-steps/s) -> step generator command; exactly
+    /// [`reference_step_command`]'s result (checked for every rate by
+    /// `proofs/exhaustive`), with the prescaler chosen by comparisons and
+    /// the period divided on the 32-bit divider.
+    pub const fn command(&self, rate_mhz: i32) -> Result<StepCommand, StepRateError> {
+        let mag = rate_mhz.unsigned_abs();
+        if mag < self.min_rate_mhz {
+            return Ok(StepCommand::Stop);
+        }
+        if mag > self.max_rate_mhz {
+            return Err(StepRateError::AboveMax);
+        }
+        let dir = if rate_mhz > 0 { Direction::Positive } else { Direction::Negative };
+        // The smallest prescaler whose period fits: the number of those
+        // that do not (the condition is monotone in the prescaler).
+        let mut p = 0usize;
+        let mut k = 0;
+        while k < 8 {
+            p += (mag < self.fits[k]) as usize;
+            k += 1;
+        }
+        if p >= 8 {
+            // below the hardware minimum: excluded by is_valid + min_rate
+            return Ok(StepCommand::Stop);
+        }
+        // den = mag 2^p < 2^28: mag <= max < 2^28 at p = 0; for p > 0 the
+        // period at 2^(p-1) did not fit, so den <= 2 clk / 65535.5 (4.6e6
+        // for a 150 MHz timer, below 1.4e8 for any 32-bit timer clock).
+        let den = (mag as u64) << p;
+        let Some(period) = div_u16(self.clk_x1000 + den / 2, den) else {
+            return Err(StepRateError::AboveMax);
+        };
+        let pulse = self.pulse[p];
+        if period < 2 || pulse >= period {
+            // cannot happen for a valid config and mag <= max
+            return Err(StepRateError::AboveMax);
+        }
+        Ok(StepCommand::Run(StepTiming { dir, prescaler_log2: p as u8, period, pulse }))
+    }
+}
+
+/// `clk + den / 2 < den * 65536`: the rounded period `(clk + den/2) / den`
+/// is at most 65535.
+const fn period_fits(clk: u64, den: u64) -> bool {
+    clk + den / 2 < den << 16
+}
+
+/// `n / d` for a quotient below 2^16 and `d` below 2^28, on the 32-bit
+/// divider: the high part `n >> 16` is below `d` (the quotient fits), and
+/// each of four steps divides a 32-bit value (`r << 4`, `r < d < 2^28`) for
+/// four more quotient bits. `None` if the preconditions do not hold (never
+/// for a [`StepPlan`]'s arguments). Written by hand: no crate offers a
+/// 64-by-32 division on ARMv7-M, and compiler-builtins' `__aeabi_uldivmod`
+/// is a 64-by-64 loop.
+const fn div_u16(n: u64, d: u64) -> Option<u16> {
+    if d == 0 || d >= 1 << 28 || (n >> 16) >= d {
+        return None;
+    }
+    let d = d as u32;
+    let lo = (n & 0xffff) as u32;
+    let mut r = (n >> 16) as u32;
+    let mut q = 0u32;
+    let mut k = 4;
+    while k > 0 {
+        k -= 1;
+        let t = (r << 4) | ((lo >> (4 * k)) & 0xf);
+        let Some(qd) = t.checked_div(d) else {
+            return None;
+        };
+        r = t - qd * d;
+        q = (q << 4) | qd;
+    }
+    Some(q as u16)
+}
+
+/// The conversion as the HAL did it before issue 14 (a 64-bit division per
+/// prescaler tried): the reference [`StepPlan::command`] is checked against.
+pub const fn reference_step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand, StepRateError> {
     if !cfg.is_valid() {
         return Err(StepRateError::BadConfig);
     }
@@ -164,8 +315,6 @@ pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand
     let mut p: u8 = 0;
     while p <= 7 {
         let den = mag as u64 * (1u64 << p);
-        // rounded; `checked_div` keeps the tick free of a panic path (a zero
-        // rate is only possible with min_rate_mhz = 0, and means "stop")
         let Some(period) = (clk_x1000 + den / 2).checked_div(den) else {
             return Ok(StepCommand::Stop);
         };
@@ -173,7 +322,6 @@ pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand
             let pulse = counts_ceil(cfg.pulse_ns, cfg.timer_hz >> p);
             let pulse = if pulse == 0 { 1 } else { pulse };
             if period < 2 || pulse as u64 >= period {
-                // cannot happen for a valid config and mag <= max
                 return Err(StepRateError::AboveMax);
             }
             return Ok(StepCommand::Run(StepTiming {
@@ -185,7 +333,6 @@ pub const fn step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand
         }
         p += 1;
     }
-    // below hardware minimum: excluded by is_valid + min_rate check
     Ok(StepCommand::Stop)
 }
 
@@ -312,6 +459,41 @@ mod tests {
 
     fn rel_err_ppm(want: i32, got: i64) -> u64 {
         ((got - want as i64).unsigned_abs() * 1_000_000) / want.unsigned_abs() as u64
+    }
+
+    #[test]
+    fn the_plan_equals_the_reference_near_every_prescaler_boundary() {
+        extern crate std;
+        use std::vec;
+        use std::vec::Vec;
+        // Sampled here (every rate is compared by `proofs/exhaustive`):
+        // both sides of each prescaler's threshold, the limits, a stride.
+        let plan = StepPlan::DEFAULT;
+        let mut rates: Vec<i32> = vec![0, 1, -1, i32::MAX, i32::MIN, 19_999, 20_000, 200_000_000, 200_000_001];
+        for f in plan.fits {
+            if f < u32::MAX {
+                for d in -3i64..=3 {
+                    rates.push((i64::from(f) + d) as i32);
+                }
+            }
+        }
+        rates.extend((20_000..200_000_000).step_by(99_991));
+        for r in rates.clone() {
+            rates.push(r.saturating_neg());
+        }
+        for r in rates {
+            assert_eq!(plan.command(r), reference_step_command(r, &CFG), "rate {r}");
+        }
+    }
+
+    #[test]
+    fn the_division_is_exact_or_refused() {
+        assert_eq!(div_u16(150_000_000_000 + 2_500_000, 5_000_000), Some(30_000));
+        assert_eq!(div_u16(150_000_000_000 + 1_000_000, 2_000_000), None); // 75,000 does not fit
+        assert_eq!(div_u16(65_535 * 7 + 6, 7), Some(65_535));
+        assert_eq!(div_u16(65_536 * 7, 7), None); // quotient does not fit
+        assert_eq!(div_u16(5, 0), None);
+        assert_eq!(div_u16(5, 1 << 28), None);
     }
 
     #[test]

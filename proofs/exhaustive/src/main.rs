@@ -2,8 +2,9 @@
 //! (`cargo run -p exhaustive --release`), each sweep labelled with what it
 //! covers (VERIFICATION.md reserves "exhaustive" for whole domains):
 //!
-//! - **exhaustive**: every input of the function. Only unwrapping is swept
-//!   whole: every pair of 12-bit readings.
+//! - **exhaustive**: every input of the function. Unwrapping (every pair
+//!   of 12-bit readings) and the HAL's step conversion (every `i32` rate,
+//!   for the board's step configuration) are swept whole.
 //! - **slice**: one argument of a multi-argument function enumerated
 //!   completely (all 2^32 `I8F24` or `f32` bit patterns, NaNs, infinities,
 //!   subnormals and both zeros included) with the others fixed, as each
@@ -221,6 +222,36 @@ fn main() {
             .map(|b| format!("z bits {b:#010x}"))
         },
     ));
+
+    // The tick's step conversion (issue 14): `StepPlan::command`, with no
+    // 64-bit division, equals the HAL's former conversion for every i32
+    // rate, for the board's configuration. Not a safety requirement of
+    // SAFETY.md (tagged HAL): the equality that lets the faster code replace
+    // the tested one. Rates beyond the maximum are AboveMax in both, decided
+    // by the same comparison: the reference is called inside the range.
+    {
+        use hal_imxrt::pure::step::{reference_step_command, StepConfig, StepPlan, StepRateError};
+        let cfg = StepConfig::DEFAULT;
+        let plan = StepPlan::DEFAULT;
+        results.push(sweep(
+            "HAL",
+            "exhaustive",
+            "step conversion: StepPlan::command == the 64-bit-division reference, every i32 rate (board config)".into(),
+            full,
+            || {
+                all_u32(|b| {
+                    let rate = b as i32;
+                    let got = plan.command(rate);
+                    if rate.unsigned_abs() > cfg.max_rate_mhz {
+                        got == Err(StepRateError::AboveMax)
+                    } else {
+                        got == reference_step_command(rate, &cfg)
+                    }
+                })
+                .map(|b| format!("rate {} mHz", b as i32))
+            },
+        ));
+    }
 
     let failed: Vec<&Sweep> = results.iter().filter(|s| s.counterexample.is_some()).collect();
     let total: u64 = results.iter().map(|s| s.cases).sum();
