@@ -41,6 +41,7 @@
 //! per-axis numeric code uses them instead of `if` so its execution time does
 //! not depend on the data.
 
+use core::num::NonZeroU32;
 use fixed::types::I8F24;
 
 /// The fixed-point variant's number type. See the module docs for the choice.
@@ -104,6 +105,24 @@ pub trait Scalar: Copy + PartialEq + PartialOrd + core::fmt::Debug + Send + Sync
     /// rejected. Returns `None` if the text does not parse or the value does
     /// not fit.
     fn parse_decimal(text: &str) -> Option<Self>;
+    /// `mantissa / 10^decimals`, negated if `negative`: exactly what
+    /// [`Self::parse_decimal`] returns for that number written out (a `-` if
+    /// `negative`, then the mantissa's digits, zero-padded to at least
+    /// `decimals + 1` digits, with a point before the last `decimals`; see
+    /// [`decimal_text`]). `decimals` at most [`MAX_DECIMALS`]; more gives
+    /// `None`.
+    ///
+    /// The protocol's numbers have a fixed count of decimals (3 or 4): the
+    /// parser gathers their digits into an integer and converts it here. The
+    /// default writes the text and calls `parse_decimal`; `f32` and [`Fx`]
+    /// compute the same value with integer arithmetic (and, for `f32`, one
+    /// exactly rounded division), checked against `parse_decimal` for every
+    /// mantissa the protocol's fields can carry
+    /// (`protocol/tests/decimal_exhaustive.rs`).
+    fn from_decimal(negative: bool, mantissa: u32, decimals: u32) -> Option<Self> {
+        let mut buf = [0u8; DECIMAL_TEXT_CAP];
+        Self::parse_decimal(decimal_text(&mut buf, negative, mantissa, decimals)?)
+    }
 
     /// `if c { a } else { b }`, written so the compiler can use a
     /// conditional select.
@@ -134,6 +153,52 @@ pub trait Scalar: Copy + PartialEq + PartialOrd + core::fmt::Debug + Send + Sync
         self.max(lo).min(hi)
     }
 }
+
+/// Largest `decimals` [`Scalar::from_decimal`] accepts (`10^9` fits a `u32`).
+pub const MAX_DECIMALS: u32 = 9;
+
+/// Bytes [`decimal_text`] needs: a sign, ten digits, a point.
+pub const DECIMAL_TEXT_CAP: usize = 12;
+
+/// Writes `mantissa / 10^decimals` (negated if `negative`) as plain decimal
+/// text into the end of `buf` and returns it: `-` if `negative`, the
+/// mantissa's digits zero-padded to at least `decimals + 1` digits, a point
+/// before the last `decimals` digits (none if `decimals` is 0). E.g.
+/// `(true, 5, 3)` gives `-0.005`, `(false, 1234, 4)` gives `0.1234`, `(true,
+/// 0, 3)` gives `-0.000`. `None` if `decimals > MAX_DECIMALS`.
+pub fn decimal_text(buf: &mut [u8; DECIMAL_TEXT_CAP], negative: bool, mantissa: u32, decimals: u32) -> Option<&str> {
+    if decimals > MAX_DECIMALS {
+        return None;
+    }
+    let mut m = mantissa;
+    let mut i = buf.len();
+    let mut written = 0u32;
+    // Digits from the least significant: at most ten for a u32, plus the
+    // zero padding up to decimals + 1 <= 10 digits.
+    loop {
+        i = i.checked_sub(1)?;
+        // `m % 10 < 10`: the `|` cannot carry into the `'0'` bits.
+        *buf.get_mut(i)? = b'0' | (m % 10) as u8;
+        m /= 10;
+        written = written.saturating_add(1);
+        if written == decimals {
+            i = i.checked_sub(1)?;
+            *buf.get_mut(i)? = b'.';
+        }
+        if m == 0 && written > decimals {
+            break;
+        }
+    }
+    if negative {
+        i = i.checked_sub(1)?;
+        *buf.get_mut(i)? = b'-';
+    }
+    core::str::from_utf8(buf.get(i..)?).ok()
+}
+
+/// `10^k` as `f32` for `k = 0..=10`: every one is exact (`10^k = 2^k 5^k`
+/// and `5^10 < 2^24`).
+const POW10_F32: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
 
 impl Scalar for f32 {
     const ZERO: Self = 0.0;
@@ -228,12 +293,69 @@ impl Scalar for f32 {
             None
         }
     }
+    #[inline]
+    fn from_decimal(negative: bool, mantissa: u32, decimals: u32) -> Option<Self> {
+        // Exact method: for `mantissa <= 2^24` both `mantissa as f32` and
+        // `10^decimals` (decimals <= 10) are exact f32 values, so the one
+        // IEEE division below is the only rounding: the quotient is
+        // `m / 10^k` correctly rounded to nearest (ties to even), which is
+        // what core's parser returns for the text. No f64, no double
+        // rounding. Negation is exact and keeps `-0.000` as -0.0, as the
+        // text parser does. The protocol's accepted values are far below
+        // the bound (|v| < 7 rad, mantissa < 70_000); a larger mantissa
+        // (a value beyond every joint limit, still to be reported exactly as
+        // before) takes the text route.
+        match POW10_F32.get(decimals as usize) {
+            Some(&p) if mantissa <= 1 << 24 && decimals <= MAX_DECIMALS => {
+                let v = mantissa as f32 / p;
+                Some(if negative { -v } else { v })
+            }
+            _ => {
+                let mut buf = [0u8; DECIMAL_TEXT_CAP];
+                Self::parse_decimal(decimal_text(&mut buf, negative, mantissa, decimals)?)
+            }
+        }
+    }
 }
 
 /// Fractional bits of [`Fx`].
 const FX_FRAC: u32 = 24;
 /// Extra fractional bits of [`Fx`]'s wide scale (Q(24+24) in an `i64`).
 const WIDE_EXTRA: u32 = 24;
+
+/// Per decimal count k = 0..=5: (10^k, C, D, E) with E = 5^k,
+/// C = 2^(24-k) div E, D = 2^(24-k) mod E, so that
+/// r 2^24 / 10^k = r C + r D / E ([`Fx`]'s `from_decimal`).
+const FX_DECIMAL: [(NonZeroU32, u32, u32, NonZeroU32); 6] = [
+    (nz(1), 1 << 24, 0, nz(1)),
+    (nz(10), 1_677_721, 3, nz(5)),
+    (nz(100), 167_772, 4, nz(25)),
+    (nz(1_000), 16_777, 27, nz(125)),
+    (nz(10_000), 1_677, 451, nz(625)),
+    (nz(100_000), 167, 2_413, nz(3_125)),
+];
+
+/// A nonzero constant (a zero would become 1 and fail the table's check
+/// below at compile time).
+const fn nz(x: u32) -> NonZeroU32 {
+    match NonZeroU32::new(x) {
+        Some(n) => n,
+        None => NonZeroU32::MIN,
+    }
+}
+
+// The table is what its comment says (checked at compile time).
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+const _: () = {
+    let mut k = 0;
+    while k < FX_DECIMAL.len() {
+        let (pow, c, d, e) = FX_DECIMAL[k];
+        let two = 1u32 << (FX_FRAC - k as u32);
+        assert!(pow.get() == 10u32.pow(k as u32) && e.get() == 5u32.pow(k as u32));
+        assert!(c == two / e.get() && d == two % e.get());
+        k += 1;
+    }
+};
 
 /// The wide scale of [`Fx`]: a signed value with 48 fractional bits (range
 /// +-32768, checked for the step-rate scale by the configuration), so a
@@ -346,6 +468,37 @@ impl Scalar for Fx {
         // `fixed`'s parser converts decimal text straight to the nearest
         // representable value (ties to even) and reports overflow.
         text.parse::<Fx>().ok()
+    }
+    #[inline]
+    fn from_decimal(negative: bool, mantissa: u32, decimals: u32) -> Option<Self> {
+        // bits = round(m 2^24 / 10^k) with only 32-bit integer operations:
+        // m = q 10^k + r (r < 10^k) splits it into q 2^24 plus
+        // round(r 2^24 / 10^k) = round(r 2^(24-k) / 5^k)
+        //                      = r C + round(r D / E),
+        // with C = 2^(24-k) div 5^k, D = 2^(24-k) mod 5^k, E = 5^k (the table).
+        // E is odd, so r D / E is never an exact half: no ties, rounding to
+        // nearest is (r D + (E - 1) / 2) div E, and the ties-to-even rule of
+        // `fixed`'s parser never applies. Bounds: r D < 10^5 3125 < 2^29,
+        // r C < 2^24, q <= 128 (checked) so q 2^24 + frac <= 2^31 + 2^24.
+        // Symmetric rounding, so the sign is applied to the magnitude:
+        // -128 (-2^31) is the one magnitude that fits only when negative.
+        let Some(&(pow, c, d, e)) = FX_DECIMAL.get(decimals as usize) else {
+            let mut buf = [0u8; DECIMAL_TEXT_CAP];
+            return Self::parse_decimal(decimal_text(&mut buf, negative, mantissa, decimals)?);
+        };
+        let q = mantissa / pow;
+        let r = mantissa % pow;
+        if q > 128 {
+            return None;
+        }
+        let frac = r.wrapping_mul(c).wrapping_add(r.wrapping_mul(d).wrapping_add(e.get() / 2) / e);
+        let mag = (q << FX_FRAC).wrapping_add(frac);
+        let bits = match (negative, mag) {
+            (false, 0..=0x7fff_ffff) => mag as i32,
+            (true, 0..=0x8000_0000) => 0i32.wrapping_sub_unsigned(mag),
+            _ => return None,
+        };
+        Some(Fx::from_bits(bits))
     }
 }
 

@@ -22,9 +22,16 @@
 //! number of the frame must share, never by a guess. [`DialectLock`] can
 //! further restrict the accepted dialect.
 //!
-//! Numbers are converted with [`Scalar::parse_decimal`] only after the
-//! syntax above is validated here (so `+1.000`, `1e3`, `nan`, `inf`, spaces
-//! never reach it); `None` from it (does not fit the scalar) is a rejection.
+//! Numbers are converted only after the syntax above is validated here (so
+//! `+1.000`, `1e3`, `nan`, `inf`, spaces never reach a conversion). One pass
+//! over each number checks its syntax and gathers its digits into an integer
+//! mantissa; the value, `mantissa / 10^decimals`, is then converted by
+//! [`Scalar::from_decimal`] with integer arithmetic (one exactly rounded
+//! division for `f32`), giving exactly what [`Scalar::parse_decimal`] gives
+//! for the text (checked for every mantissa below 2^24 in
+//! `protocol/tests/decimal_exhaustive.rs`). A number with more digits than a
+//! `u32` holds is converted from its text by `parse_decimal`. `None` (does
+//! not fit the scalar) is a rejection.
 //! Every accepted target is then checked against the arm's configuration:
 //! `limit_min <= p <= limit_max` and `|v| <= max_velocity`, with the limits
 //! checked by the kernel's own [`kernel::TargetLimits`].
@@ -227,18 +234,100 @@ pub struct Parser<S> {
     lock: DialectLock,
 }
 
-/// Checks `-?[0-9]+(\.[0-9]*)?`; returns the number of decimals.
-fn number_decimals(field: &[u8]) -> Option<usize> {
-    let digits = field.strip_prefix(b"-").unwrap_or(field);
-    let (int, frac) = match digits.iter().position(|&b| b == b'.') {
-        Some(dot) => (digits.get(..dot)?, digits.get(dot.saturating_add(1)..)?),
-        None => (digits, &[][..]),
-    };
-    let all_digits = |s: &[u8]| s.iter().all(u8::is_ascii_digit);
-    if int.is_empty() || !all_digits(int) || !all_digits(frac) {
-        return None;
+/// A number: its sign, its digits as one integer and its decimals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Number {
+    /// A leading `-`.
+    negative: bool,
+    /// Its digits (integer and fraction) as one integer; `u32::MAX` when it
+    /// has more than 9 digits (then the text is converted instead, by
+    /// `parse_decimal`).
+    mantissa: u32,
+    /// Digits after the point (0 without a point).
+    decimals: usize,
+}
+
+/// What the single pass over a motion frame's body learns about one
+/// comma-separated field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Field {
+    /// Its bytes are `body[start..end]`.
+    start: usize,
+    end: usize,
+    /// Its digits gathered as `m = 10 m + d` (wrapping; meaningful for at
+    /// most 9 digits).
+    mantissa: u32,
+    /// Points seen, and where the last one is.
+    dots: usize,
+    dot: usize,
+    /// A byte other than a digit, a point, or a `-` in first place.
+    bad: bool,
+}
+
+/// Largest digit count whose mantissa fits a `u32` for sure.
+const MAX_DIGITS: usize = 9;
+
+impl Field {
+    fn text<'a>(&self, body: &'a [u8]) -> &'a [u8] {
+        body.get(self.start..self.end).unwrap_or_default()
     }
-    Some(frac.len())
+
+    /// The number if the field is `-?[0-9]+(\.[0-9]*)?`, else `None`.
+    fn number(&self, body: &[u8]) -> Option<Number> {
+        let negative = body.get(self.start) == Some(&b'-');
+        let digits_start = self.start.saturating_add(usize::from(negative));
+        if self.bad || self.dots > 1 {
+            return None;
+        }
+        let (int_end, decimals) = match self.dots {
+            1 => (self.dot, self.end.saturating_sub(self.dot).saturating_sub(1)),
+            _ => (self.end, 0),
+        };
+        if int_end <= digits_start {
+            return None; // no integer digit (`.5`, `-`, `-.5`)
+        }
+        let digits = self.end.saturating_sub(digits_start).saturating_sub(self.dots);
+        let mantissa = if digits <= MAX_DIGITS { self.mantissa } else { u32::MAX };
+        Some(Number { negative, mantissa, decimals })
+    }
+}
+
+/// One pass over a motion frame's text after `<`, up to the first `>`:
+/// field boundaries, and for each field its digits (as an integer), points
+/// and stray bytes; the first [`MOTION_FIELDS`] fields are stored. Returns
+/// the number of fields and where the `>` is (`None`: no `>`). The parser's
+/// checks then run in the documented order on these summaries.
+#[inline]
+fn scan_fields(rest: &[u8], fields: &mut [Field; MOTION_FIELDS]) -> (usize, Option<usize>) {
+    let mut found = 0usize;
+    let mut f = Field::default();
+    for (i, &b) in rest.iter().enumerate() {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            f.mantissa = f.mantissa.wrapping_mul(10).wrapping_add(u32::from(d));
+            continue;
+        }
+        match b {
+            b',' | b'>' => {
+                f.end = i;
+                if let Some(slot) = fields.get_mut(found) {
+                    *slot = f;
+                }
+                found = found.saturating_add(1);
+                if b == b'>' {
+                    return (found, Some(i));
+                }
+                f = Field { start: i.saturating_add(1), ..Field::default() };
+            }
+            b'.' => {
+                f.dots = f.dots.saturating_add(1);
+                f.dot = i;
+            }
+            b'-' if i == f.start => {}
+            _ => f.bad = true,
+        }
+    }
+    (found, None)
 }
 
 fn parse_seq(field: &[u8]) -> Result<u32, ParseError> {
@@ -273,6 +362,10 @@ impl<S: Scalar> Parser<S> {
     /// Parses one line (without terminator).
     pub fn parse(&self, line: &[u8]) -> Result<Command<S>, ParseError> {
         let rest = line.strip_prefix(b"<").ok_or(ParseError::MissingStart)?;
+        if rest.first().is_some_and(|b| !b.is_ascii_alphabetic() && *b != b'>') {
+            // A motion frame (or junk): one pass finds the end too.
+            return self.motion(rest);
+        }
         let end = rest.iter().position(|&b| b == b'>').ok_or(ParseError::MissingEnd)?;
         let (body, tail) = rest.split_at_checked(end).ok_or(ParseError::MissingEnd)?;
         if tail.len() != 1 {
@@ -280,8 +373,7 @@ impl<S: Scalar> Parser<S> {
         }
         match body.first() {
             None => Err(ParseError::EmptyFrame),
-            Some(b) if b.is_ascii_alphabetic() => Self::keyword(body),
-            Some(_) => self.motion(body),
+            _ => Self::keyword(body),
         }
     }
 
@@ -294,33 +386,34 @@ impl<S: Scalar> Parser<S> {
         }
     }
 
-    fn motion(&self, body: &[u8]) -> Result<Command<S>, ParseError> {
-        // Split into exactly 13 fields; count any extra.
-        let mut fields: [&[u8]; MOTION_FIELDS] = [&[]; MOTION_FIELDS];
-        let mut found = 0usize;
-        for part in body.split(|&b| b == b',') {
-            if let Some(slot) = fields.get_mut(found) {
-                *slot = part;
-            }
-            found = found.saturating_add(1);
+    /// A motion frame: `rest` is the line after `<`, starting with neither a
+    /// letter nor `>`.
+    fn motion(&self, rest: &[u8]) -> Result<Command<S>, ParseError> {
+        let mut fields = [Field::default(); MOTION_FIELDS];
+        let (found, end) = scan_fields(rest, &mut fields);
+        let end = end.ok_or(ParseError::MissingEnd)?;
+        if rest.len() != end.saturating_add(1) {
+            return Err(ParseError::TrailingText);
         }
+        let body = rest.get(..end).unwrap_or_default();
         if found != MOTION_FIELDS {
             return Err(ParseError::WrongFieldCount { found: sat_u8(found) });
         }
-        if let Some(i) = fields.iter().position(|f| f.is_empty()) {
+        if let Some(i) = fields.iter().position(|f| f.start == f.end) {
             return Err(ParseError::EmptyField { field: sat_u8(i) });
         }
         let [seq_field, numbers @ ..] = fields;
-        let seq = parse_seq(seq_field)?;
+        let seq = parse_seq(seq_field.text(body))?;
 
         // Syntax and decimals of every number before any conversion.
+        let mut nums = [Number::default(); MOTION_FIELDS];
         let mut threes = 0usize;
-        for (i, f) in (1u8..).zip(numbers.iter()) {
-            match number_decimals(f) {
-                None => return Err(ParseError::NonNumeric { field: i }),
-                Some(3) => threes = threes.saturating_add(1),
-                Some(4) => {}
-                Some(d) => return Err(ParseError::BadDecimals { field: i, decimals: sat_u8(d) }),
+        for ((i, f), n) in (1u8..).zip(numbers.iter()).zip(nums.iter_mut().skip(1)) {
+            *n = f.number(body).ok_or(ParseError::NonNumeric { field: i })?;
+            match n.decimals {
+                3 => threes = threes.saturating_add(1),
+                4 => {}
+                d => return Err(ParseError::BadDecimals { field: i, decimals: sat_u8(d) }),
             }
         }
         let dialect = match threes {
@@ -337,9 +430,18 @@ impl<S: Scalar> Parser<S> {
 
         let value = |field: usize| -> Result<S, ParseError> {
             let idx = sat_u8(field);
-            let text = fields.get(field).ok_or(ParseError::OutOfRange { field: idx })?;
-            let text = core::str::from_utf8(text).map_err(|_| ParseError::NonNumeric { field: idx })?;
-            let v = S::parse_decimal(text).ok_or(ParseError::OutOfRange { field: idx })?;
+            let n = nums.get(field).ok_or(ParseError::OutOfRange { field: idx })?;
+            let v = if n.mantissa == u32::MAX {
+                // More than 9 digits (beyond every limit unless padded with
+                // zeros): the text parser's verdict, whatever it is.
+                let text = fields.get(field).ok_or(ParseError::OutOfRange { field: idx })?.text(body);
+                let text = core::str::from_utf8(text).map_err(|_| ParseError::NonNumeric { field: idx })?;
+                S::parse_decimal(text)
+            } else {
+                // Exactly `parse_decimal` of the text (`Scalar::from_decimal`).
+                S::from_decimal(n.negative, n.mantissa, dialect.decimals() as u32)
+            };
+            let v = v.ok_or(ParseError::OutOfRange { field: idx })?;
             if v.is_finite() {
                 Ok(v)
             } else {
@@ -423,14 +525,59 @@ mod tests {
         assert_eq!(p().parse(b"<>"), Err(ParseError::EmptyFrame));
     }
 
+    /// The syntax check as it was (`-?[0-9]+(\.[0-9]*)?`, decimals), the
+    /// specification of [`Field::number`].
+    fn number_decimals(field: &[u8]) -> Option<usize> {
+        let digits = field.strip_prefix(b"-").unwrap_or(field);
+        let (int, frac) = match digits.iter().position(|&b| b == b'.') {
+            Some(dot) => (&digits[..dot], &digits[dot + 1..]),
+            None => (digits, &[][..]),
+        };
+        let all_digits = |s: &[u8]| s.iter().all(u8::is_ascii_digit);
+        (!int.is_empty() && all_digits(int) && all_digits(frac)).then_some(frac.len())
+    }
+
+    /// [`Field::number`] of `text` scanned as the first field of a frame.
+    fn number(text: &[u8]) -> Option<Number> {
+        let mut rest = text.to_vec();
+        rest.push(b'>');
+        let mut fields = [Field::default(); MOTION_FIELDS];
+        assert_eq!(scan_fields(&rest, &mut fields), (1, Some(text.len())));
+        fields[0].number(&rest[..text.len()])
+    }
+
     #[test]
     fn number_syntax() {
-        assert_eq!(number_decimals(b"0.000"), Some(3));
-        assert_eq!(number_decimals(b"-12.3456"), Some(4));
-        assert_eq!(number_decimals(b"1"), Some(0));
-        assert_eq!(number_decimals(b"1."), Some(0));
+        let n = |negative, mantissa, decimals| Some(Number { negative, mantissa, decimals });
+        assert_eq!(number(b"0.000"), n(false, 0, 3));
+        assert_eq!(number(b"-12.3456"), n(true, 123_456, 4));
+        assert_eq!(number(b"-0.000"), n(true, 0, 3));
+        assert_eq!(number(b"1"), n(false, 1, 0));
+        assert_eq!(number(b"1."), n(false, 1, 0));
+        assert_eq!(number(b"999999.999"), n(false, 999_999_999, 3));
+        assert_eq!(number(b"0000001.000"), n(false, u32::MAX, 3));
+        assert_eq!(number(b"99999999999999999999.000"), n(false, u32::MAX, 3));
         for bad in [&b"+1.000"[..], b"1e3", b"nan", b"inf", b" 1.000", b".500", b"-", b"--1.000", b"1.0.0", b"1-0.0"] {
-            assert_eq!(number_decimals(bad), None, "{}", String::from_utf8_lossy(bad));
+            assert_eq!(number(bad), None, "{}", String::from_utf8_lossy(bad));
+        }
+        // Every string of up to 7 characters over a small alphabet: the
+        // verdict and decimals are the old check's, the mantissa the digits'.
+        let alphabet = b"-.0159x";
+        for len in 0..=7 {
+            let mut idx = vec![0usize; len];
+            loop {
+                let t: Vec<u8> = idx.iter().map(|&i| alphabet[i]).collect();
+                let got = number(&t);
+                assert_eq!(got.map(|n| n.decimals), number_decimals(&t), "{}", String::from_utf8_lossy(&t));
+                if let Some(n) = got {
+                    let digits: String = t.iter().filter(|b| b.is_ascii_digit()).map(|&b| b as char).collect();
+                    assert_eq!(n.mantissa, digits.parse::<u32>().unwrap());
+                    assert_eq!(n.negative, t[0] == b'-');
+                }
+                let Some(p) = idx.iter().rposition(|&i| i + 1 < alphabet.len()) else { break };
+                idx[p] += 1;
+                idx[p + 1..].iter_mut().for_each(|i| *i = 0);
+            }
         }
         assert_eq!(parse_seq(b"4294967295"), Ok(u32::MAX));
         assert_eq!(parse_seq(b"4294967296"), Err(ParseError::SeqOverflow));
