@@ -162,6 +162,11 @@ pub struct Board {
     pub trace: [u32; 16],
     /// Next slot of `trace`.
     pub trace_i: usize,
+    /// The PIT handler is running (set by the harness around each call).
+    pub in_pit: bool,
+    /// Instructions executed inside the PIT handler, per translated-block
+    /// address (the per-function profile of the tick interrupt).
+    pub pit_blocks: HashMap<u32, u64>,
     /// Address of `main` (the image's entry after the runtime's reset code).
     pub main_addr: u32,
     /// Times (cycles) at which `main` was entered, one per boot.
@@ -211,6 +216,8 @@ impl Board {
             stopped_at: None,
             trace: [0; 16],
             trace_i: 0,
+            in_pit: false,
+            pit_blocks: HashMap::new(),
             main_addr: u32::MAX,
             main_at: Vec::new(),
             faults_forced_inactive: false,

@@ -161,6 +161,9 @@ impl Twin {
             }
             let b = uc.get_data_mut();
             b.now += n;
+            if b.in_pit {
+                *b.pit_blocks.entry(addr as u32).or_insert(0) += n;
+            }
             b.trace[b.trace_i & 15] = addr as u32;
             b.trace_i = b.trace_i.wrapping_add(1);
             if addr as u32 == b.main_addr {
@@ -314,6 +317,7 @@ impl Twin {
                     return Err(self.fault("returned to the sentinel outside a handler".into()));
                 };
                 self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
+                self.board_mut().in_pit = false;
                 if let Some(&entry) = self.stats.pit_entries.last() {
                     if self.stats.pit_instructions.len() < self.stats.pit_entries.len() {
                         let n = self.now().saturating_sub(entry);
@@ -344,12 +348,28 @@ impl Twin {
             return Err(self.fault("cannot enter the PIT handler".into()));
         }
         self.in_handler = Some(ctx);
+        self.board_mut().in_pit = true;
         self.stats.pit_calls += 1;
         if self.stats.pit_entries.len() < 1_000_000 {
             let now = self.now();
             self.stats.pit_entries.push(now);
         }
         Ok(())
+    }
+
+    /// The PIT handler's instructions by function (the function each
+    /// translated block starts in), largest first: the per-component
+    /// profile of the tick interrupt.
+    pub fn pit_profile(&self) -> Vec<(String, u64)> {
+        let mut by: HashMap<String, u64> = HashMap::new();
+        for (&a, &n) in &self.board().pit_blocks {
+            let s = self.image.symbolize(a & !1);
+            let f = demangle(s.rsplit_once('+').map_or(s.as_str(), |(f, _)| f));
+            *by.entry(f).or_insert(0) += n;
+        }
+        let mut v: Vec<(String, u64)> = by.into_iter().collect();
+        v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        v
     }
 
     /// Take exception `vector` (vector-table index: 3 = HardFault, 16 + n
@@ -491,4 +511,33 @@ fn set_cyccnt(b: &mut Board, value: u32) {
     } else {
         b.cyccnt_off = value;
     }
+}
+
+/// A Rust legacy-mangled symbol (`_ZN6kernel4tick17h0123456789abcdefE`) as a
+/// path without its hash (`kernel::tick`); other names unchanged. (Written
+/// here: the twin needs only this, not the `rustc-demangle` crate's v0
+/// support.)
+pub fn demangle(sym: &str) -> String {
+    let Some(mut rest) = sym.strip_prefix("_ZN") else {
+        return sym.to_string();
+    };
+    let mut parts: Vec<String> = Vec::new();
+    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(len) = rest[..len_end].parse::<usize>() else { break };
+        let Some(part) = rest.get(len_end..len_end + len) else { break };
+        parts.push(part.to_string());
+        rest = &rest[len_end + len..];
+    }
+    if parts.last().is_some_and(|p| p.len() == 17 && p.starts_with('h')) {
+        parts.pop();
+    }
+    let path = parts.join("::");
+    path.replace("$LT$", "<")
+        .replace("$GT$", ">")
+        .replace("$u20$", " ")
+        .replace("$C$", ",")
+        .replace("$RF$", "&")
+        .replace("$u7b$", "{")
+        .replace("$u7d$", "}")
+        .replace("..", "::")
 }

@@ -99,6 +99,12 @@ fn run_scenario(file: &str) -> Result<(), String> {
     println!("q at {} ms = {:?}", o.end_ms, o.q);
     if let Some(line) = twin::pit_instruction_summary(&o.pit_instructions) {
         println!("{line}");
+        let calls = o.pit_instructions.len().max(1) as f64;
+        let total: u64 = o.pit_profile.iter().map(|(_, n)| n).sum();
+        println!("PIT handler profile (function a block starts in; instructions per call, share):");
+        for (f, n) in o.pit_profile.iter().take(20) {
+            println!("  {:>8.0}  {:>5.1} %  {f}", *n as f64 / calls, 100.0 * *n as f64 / total.max(1) as f64);
+        }
     }
     println!(
         "simulated {:.1} s in {:.1} s wall ({:.2} x real time)",

@@ -39,6 +39,8 @@ pub struct Outcome {
     pub wall_s: f64,
     /// Instructions of each PIT handler call (the whole tick interrupt).
     pub pit_instructions: Vec<u64>,
+    /// The PIT handler's instructions by function, largest first.
+    pub pit_profile: Vec<(String, u64)>,
 }
 
 /// The anchor an event line marks. The simulator's `estop` anchor is the
@@ -210,5 +212,6 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
     out.q = t.board().plant.q();
     out.wall_s = wall.elapsed().as_secs_f64();
     out.pit_instructions = t.stats.pit_instructions.clone();
+    out.pit_profile = t.pit_profile();
     Ok(out)
 }
