@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
-# Bounded fuzzing of the framer + parser (sampled evidence, not a proof).
-# Usage: protocol/fuzz/run.sh [seconds]   (default 30)
+# Bounded fuzzing of every target (sampled evidence, not a proof), within a
+# total time budget split between them: framer_parser 1/2, receive_path 1/4,
+# kernel_ticks the rest (each at least 1 s). Prints executions per second per
+# target. Fails on the first crash (libFuzzer writes the input to
+# artifacts/<target>/).
+# Usage: protocol/fuzz/run.sh [seconds]   (default 30; docs/FUZZING.md)
 # Installs what it needs: a nightly toolchain (minimal profile) and cargo-fuzz.
 set -euo pipefail
 SECS="${1:-30}"
@@ -11,7 +15,39 @@ if ! cargo +"$NIGHTLY" fuzz --version >/dev/null 2>&1; then
     cargo install cargo-fuzz --locked
 fi
 
-# The committed seeds live in corpus/framer_parser/seed_*; libFuzzer adds its
-# own finds to the same directory (ignored by git).
-cargo +"$NIGHTLY" fuzz run framer_parser corpus/framer_parser -- \
-    -max_total_time="$SECS" -rss_limit_mb=512 -max_len=4096
+half=$((SECS / 2)); quarter=$((SECS / 4))
+rest=$((SECS - half - quarter))
+budget() { if [ "$1" -lt 1 ]; then echo 1; else echo "$1"; fi; }
+declare -A TIME=([framer_parser]=$(budget $half) [receive_path]=$(budget $quarter) [kernel_ticks]=$(budget $rest))
+TARGETS="framer_parser receive_path kernel_ticks"
+
+# Build once, outside the budget.
+cargo +"$NIGHTLY" fuzz build
+
+# The committed corpus (corpus/<target>, minimised) is read; new finds go to
+# a scratch directory under target/ (ignored by git), so a run leaves the
+# working tree clean. `-max_len=4096` covers a few dozen protocol lines.
+summary=""
+for t in $TARGETS; do
+    work="target/corpus-work/$t"
+    mkdir -p "$work" "corpus/$t"
+    log="target/fuzz-$t.log"
+    echo "== $t: ${TIME[$t]} s"
+    set +e
+    cargo +"$NIGHTLY" fuzz run "$t" "$work" "corpus/$t" -- \
+        -max_total_time="${TIME[$t]}" -rss_limit_mb=1024 -max_len=4096 2>&1 \
+        | tee "$log" | grep -E "INITED|DONE|ERROR|panicked|SUMMARY"
+    status=${PIPESTATUS[0]}  # cargo fuzz's status, not grep's
+    set -e
+    if [ "$status" -ne 0 ]; then
+        tail -n 60 "$log"
+        echo "fuzz target $t FAILED (exit $status); the input is in protocol/fuzz/artifacts/$t/" >&2
+        exit "$status"
+    fi
+    runs=$(sed -n 's/^Done \([0-9]*\) runs in \([0-9]*\) second.*/\1/p' "$log" | tail -n 1)
+    secs=$(sed -n 's/^Done \([0-9]*\) runs in \([0-9]*\) second.*/\2/p' "$log" | tail -n 1)
+    rate=$(( ${runs:-0} / ( ${secs:-1} > 0 ? ${secs:-1} : 1 ) ))
+    summary+=$(printf '%-14s %12s runs %6s s %10s exec/s' "$t" "${runs:-?}" "${secs:-?}" "$rate")$'\n'
+done
+echo "== fuzzing summary (no crash)"
+printf '%s' "$summary"

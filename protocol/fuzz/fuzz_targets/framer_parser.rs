@@ -1,14 +1,22 @@
 //! Framer + parser + sequence filter on arbitrary bytes, for both scalar
 //! types and every dialect lock. Panics (the fuzzer's findings) on: any
 //! panic inside the crate, an accepted motion frame outside the joint
-//! limits, or a report line that is not clean printable text.
+//! limits, a report line that is not clean printable text, or a line the
+//! parser reads differently from the pre-issue-14 parser (numbers converted
+//! from their text, `protocol/tests/reference`): a different verdict, error
+//! or any value not bit-identical.
 #![no_main]
+
+#[path = "../../tests/reference/mod.rs"]
+mod reference;
 
 use kernel::config::{ArmConfig, PAROL6, PAROL6_VALIDATED};
 use kernel::{Fx, MotionTarget, Scalar};
 use libfuzzer_sys::fuzz_target;
+use protocol::framer::Framer;
 use protocol::receiver::{Received, Receiver};
-use protocol::{Command, DialectLock, Line, ProtocolConfig};
+use protocol::{Command, DialectLock, Line, Parser, ProtocolConfig, INPUT_LINE_CAP};
+use reference::Bits;
 
 fn within_limits<S: Scalar>(c: &ArmConfig, t: &MotionTarget<S>) -> bool {
     let tol = 1e-7;
@@ -22,7 +30,7 @@ fn within_limits<S: Scalar>(c: &ArmConfig, t: &MotionTarget<S>) -> bool {
     })
 }
 
-fn run<S: Scalar>(data: &[u8], lock: DialectLock) {
+fn run<S: Bits>(data: &[u8], lock: DialectLock) {
     let cfg = ProtocolConfig { lock, ..ProtocolConfig::DEFAULT };
     let mut rx: Receiver<S> = Receiver::new(&PAROL6_VALIDATED, cfg);
     let mut out = Line::new();
@@ -36,6 +44,16 @@ fn run<S: Scalar>(data: &[u8], lock: DialectLock) {
                 assert!(!body.starts_with('<'));
                 assert!(body.bytes().all(|b| (0x20..=0x7E).contains(&b)));
             }
+        }
+    }
+    // The same lines through the parser and the reference parser.
+    let parser: Parser<S> = Parser::new(&PAROL6_VALIDATED, lock);
+    let mut framer: Framer<INPUT_LINE_CAP> = Framer::new();
+    for &b in data {
+        if let Some(Ok(line)) = framer.push(b) {
+            let got = parser.parse(line);
+            let want = reference::parse(&parser, line);
+            assert!(reference::same(&got, &want), "{:?}: {got:?} vs {want:?}", String::from_utf8_lossy(line));
         }
     }
 }
