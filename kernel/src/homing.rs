@@ -137,7 +137,7 @@ impl<S: Scalar> AxisHoming<S> {
     }
     /// Accelerates toward `want` by at most `dv`.
     fn ramp(&mut self, want: S, dv: S) -> S {
-        self.vel = want.clamp_between(self.vel.minus(dv), self.vel.plus(dv));
+        self.vel = crate::ramp::toward(self.vel, want, dv);
         self.vel
     }
 

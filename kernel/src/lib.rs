@@ -56,6 +56,7 @@ pub mod homing;
 pub mod interp;
 mod kernel;
 pub mod observer;
+pub mod ramp;
 pub mod scalar;
 mod types;
 

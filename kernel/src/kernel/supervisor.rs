@@ -21,6 +21,7 @@
 
 use super::{bit, Kernel, ALL};
 use crate::config::{AXES, COUNTS_PER_REV};
+use crate::ramp;
 use crate::scalar::Scalar;
 use crate::types::{EncoderSample, Event, Events, Fault, FaultReason, HomingStatus, Reject, Sense, State, StopCause};
 
@@ -291,21 +292,15 @@ impl<S: Scalar> Kernel<S> {
     fn ramp(&mut self, k: u32, v0: &[S; AXES], track: bool, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
         let n = self.p.stop_ticks;
         let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
-        let scale = self.p.inv_stop.times_int(left).min(S::ONE).max(S::ZERO);
+        let scale = ramp::stop_scale(self.p.inv_stop, left);
         let kp = &self.p;
         let axes =
             self.axes.iter_mut().zip(kp.axes.iter()).zip(out.iter_mut()).zip(v0.iter()).zip(self.last_out.iter());
         for (i, ((((ax, p), o), v), prev)) in axes.enumerate() {
-            let env = v.times(scale).clamp_between(S::ZERO, *prev);
-            let env = S::select(env.is_finite(), env, S::ZERO);
             // Following, the output may fall no faster than the ramp itself
-            // (vmax / N per tick).
-            let follow = if track {
-                ax.brake(i as u8, p, kp, fault).clamp_between(prev.minus(p.stop_step), prev.plus(p.stop_step))
-            } else {
-                env
-            };
-            *o = S::select(k >= n, S::ZERO, follow.clamp_between(S::ZERO, env));
+            // (vmax / N per tick); the arithmetic is `ramp::stop_output`.
+            let follow = if track { Some((ax.brake(i as u8, p, kp, fault), p.stop_step)) } else { None };
+            *o = ramp::stop_output(*v, scale, *prev, follow, k >= n);
         }
     }
 
