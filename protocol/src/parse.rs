@@ -402,13 +402,12 @@ impl<S: Scalar> Parser<S> {
         if let Some(i) = fields.iter().position(|f| f.start == f.end) {
             return Err(ParseError::EmptyField { field: sat_u8(i) });
         }
-        let [seq_field, numbers @ ..] = fields;
-        let seq = parse_seq(seq_field.text(body))?;
+        let seq = parse_seq(fields.first().map_or(&[][..], |f| f.text(body)))?;
 
         // Syntax and decimals of every number before any conversion.
         let mut nums = [Number::default(); MOTION_FIELDS];
         let mut threes = 0usize;
-        for ((i, f), n) in (1u8..).zip(numbers.iter()).zip(nums.iter_mut().skip(1)) {
+        for ((i, f), n) in (1u8..).zip(fields.iter().skip(1)).zip(nums.iter_mut().skip(1)) {
             *n = f.number(body).ok_or(ParseError::NonNumeric { field: i })?;
             match n.decimals {
                 3 => threes = threes.saturating_add(1),
