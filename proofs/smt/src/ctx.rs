@@ -82,6 +82,9 @@ struct Node {
     ground: bool,
     /// Its cone contains a product of two non-constant terms.
     nonlinear: bool,
+    /// It *is* such a product, of these two nodes (see [`Ctx::load`]:
+    /// abstracted in the first check).
+    product: Option<(u32, u32)>,
 }
 
 /// The node ids a term's text refers to (`t<digits>` tokens).
@@ -124,6 +127,20 @@ struct Explorer {
     evaluate: bool,
     /// Feasibility checks z3 could not decide in time.
     unknown: u64,
+    /// Feasibility checks not made on the whole path condition (nonlinear
+    /// literals, or every decision with `blind_all`; see
+    /// [`Ctx::check_with`]): both outcomes explored.
+    blind: u64,
+    /// Explore both outcomes of every decision without asking z3 (see
+    /// [`explore_blind`]).
+    blind_all: bool,
+    /// Unsatisfiable cores of property checks on earlier paths: (property,
+    /// path literals). A path whose condition contains every literal of a
+    /// core of its property is proved without z3 (`u32::MAX`: the path
+    /// literals alone are unsatisfiable, any property).
+    cores: Vec<(u32, Vec<(u32, bool)>)>,
+    /// Property checks answered from `cores`.
+    reused: u64,
 }
 
 /// The per-thread context.
@@ -134,6 +151,8 @@ struct Ctx {
     /// Declared inputs, by name, for counterexamples.
     vars: Vec<(String, u32)>,
     explorer: Explorer,
+    /// The problem loaded last has no floating-point term.
+    bit_vectors_only: bool,
 }
 
 thread_local! {
@@ -156,6 +175,7 @@ impl Ctx {
             cons: HashMap::new(),
             vars: Vec::new(),
             explorer: Explorer::default(),
+            bit_vectors_only: false,
         };
         let fixed = [
             (Sort::F32, f32_literal(0.0)),
@@ -183,7 +203,7 @@ impl Ctx {
         let ground = deps.iter().all(|d| node(d).ground);
         let nonlinear = deps.iter().any(|d| node(d).nonlinear);
         let cmd = format!("(define-fun {} () {} {})", name(id), sort.smt(), text);
-        self.nodes.push(Node { sort, cmd, deps, ground, nonlinear });
+        self.nodes.push(Node { sort, cmd, deps, ground, nonlinear, product: None });
         self.cons.insert((sort, text), id);
         id
     }
@@ -195,7 +215,7 @@ impl Ctx {
         }
         let id = u32::try_from(self.nodes.len()).expect("fewer than 2^32 terms");
         let cmd = format!("(declare-const {} {})", name(id), sort.smt());
-        self.nodes.push(Node { sort, cmd, deps: Vec::new(), ground: false, nonlinear: false });
+        self.nodes.push(Node { sort, cmd, deps: Vec::new(), ground: false, nonlinear: false, product: None });
         self.cons.insert(key, id);
         if !label.starts_with("choice ") {
             self.vars.push((label.to_string(), id));
@@ -205,7 +225,15 @@ impl Ctx {
 
     /// Starts z3 afresh with the definitions `roots` need (and only
     /// those): every check is a one-shot problem (see `z3::check_command`).
-    fn load(&mut self, roots: &[u32]) {
+    ///
+    /// With `abstracted`, every product of two non-constant terms in the
+    /// cone is declared as a fresh unconstrained constant instead of being
+    /// defined (z3 no longer bit-blasts a multiplier of two unknowns), and
+    /// only facts that hold for the real product are asserted about it
+    /// ([`Ctx::product_lemmas`]). The result is a weaker formula than the
+    /// real one: `unsat` for it is `unsat` for the real one. Returns
+    /// whether any product was abstracted.
+    fn load(&mut self, roots: &[u32], abstracted: bool, cores: bool) -> bool {
         let mut need = vec![false; self.nodes.len()];
         let mut stack: Vec<u32> = roots.to_vec();
         while let Some(i) = stack.pop() {
@@ -216,9 +244,30 @@ impl Ctx {
             }
         }
         self.z3.reset();
-        for (n, _) in self.nodes.iter().zip(need).filter(|(_, k)| *k) {
-            self.z3.send(&n.cmd);
+        if cores {
+            // Minimised cores are reused on many more paths (16 checks
+            // instead of 78 on the interpolator's acceleration bound).
+            self.z3.send("(set-option :produce-unsat-cores true)");
+            self.z3.send("(set-option :sat.core.minimize true)");
+            self.z3.send("(set-option :smt.core.minimize true)");
         }
+        self.bit_vectors_only = true;
+        let mut products = Vec::new();
+        for (i, (n, _)) in self.nodes.iter().zip(need).enumerate().filter(|(_, (_, k))| *k) {
+            self.bit_vectors_only &= n.sort != Sort::F32;
+            match n.product {
+                Some((a, b)) if abstracted => {
+                    let id = u32::try_from(i).expect("fewer than 2^32 terms");
+                    self.z3.send(&format!("(declare-const {} {})", name(id), n.sort.smt()));
+                    products.push((id, a, b, n.sort));
+                }
+                _ => self.z3.send(&n.cmd),
+            }
+        }
+        for lemma in product_lemmas(&products) {
+            self.z3.send(&format!("(assert {lemma})"));
+        }
+        !products.is_empty()
     }
 
     /// Marks node `id` (a product of `a` and `b`) nonlinear if neither
@@ -228,46 +277,110 @@ impl Ctx {
         if !ground(self, a) && !ground(self, b) {
             if let Some(n) = self.nodes.get_mut(id as usize) {
                 n.nonlinear = true;
+                n.product = Some((a, b));
             }
         }
     }
 
-    /// Satisfiability of the path condition plus `extra`, first with the
-    /// path condition's literals free of nonlinear products only (a
-    /// weaker formula: if it is unsatisfiable, so is the whole; z3 decides
-    /// it much faster), then, if that is not conclusive, with all of it.
-    fn check_with(&mut self, extra: Option<(u32, bool)>, timeout_ms: u32) -> Sat {
-        let linear: Vec<(u32, bool)> = self
-            .explorer
-            .lits
-            .iter()
-            .copied()
-            .filter(|l| !self.nodes.get(l.0 as usize).is_some_and(|n| n.nonlinear))
-            .collect();
-        if linear.len() < self.explorer.lits.len() {
-            let mut lits = linear;
-            lits.extend(extra);
-            if self.check_lits(&lits, timeout_ms.min(LINEAR_TIMEOUT_MS)) == Sat::Unsat {
+    /// Satisfiability of the path condition plus `extra`, in stages, each
+    /// on a formula implied by the real one (so `unsat` at any stage is
+    /// `unsat` for the real one):
+    ///
+    /// 1. the path condition without its literals that contain a product
+    ///    of two non-constant terms ("nonlinear"), plus `extra`;
+    /// 2. everything, with those products abstracted ([`Ctx::load`]);
+    /// 3. everything.
+    ///
+    /// A feasibility check (`Check::Decision`) stops after stage 1: if that
+    /// is not `unsat` and literals were left out, it answers `Unknown`
+    /// (the caller explores both outcomes: sound, an infeasible path costs
+    /// time, never soundness); and a nonlinear `extra` is not checked at
+    /// all (`Unknown`). A property check (`Check::Property`) goes on until
+    /// a stage is conclusive (the last one is the real formula, so its
+    /// `sat` is a real counterexample).
+    fn check_with(&mut self, extra: Option<(u32, bool)>, timeout_ms: u32, kind: Check) -> Sat {
+        let nonlinear = |c: &Ctx, l: &(u32, bool)| c.nodes.get(l.0 as usize).is_some_and(|n| n.nonlinear);
+        let mut all = self.explorer.lits.clone();
+        all.extend(extra);
+        if kind == Check::Decision && extra.is_some_and(|e| nonlinear(self, &e)) {
+            self.explorer.blind += 1;
+            return Sat::Unknown;
+        }
+        let linear: Vec<(u32, bool)> = all.iter().copied().filter(|l| !nonlinear(self, l)).collect();
+        let dropped = linear.len() < all.len();
+        if kind == Check::Decision {
+            let r = self.check_lits(&linear, timeout_ms, false, false);
+            if dropped && r == Sat::Sat {
+                self.explorer.blind += 1;
+                return Sat::Unknown;
+            }
+            if r == Sat::Unknown {
+                self.explorer.unknown += 1;
+            }
+            return r;
+        }
+        let cores = self.explorer.blind_all;
+        let prop = extra.map(|e| e.0);
+        if cores {
+            let have: std::collections::HashSet<(u32, bool)> = all.iter().copied().collect();
+            let hit = self
+                .explorer
+                .cores
+                .iter()
+                .any(|(p, core)| (*p == u32::MAX || Some(*p) == prop) && core.iter().all(|l| have.contains(l)));
+            if hit {
+                self.explorer.reused += 1;
                 return Sat::Unsat;
             }
         }
-        let mut lits = self.explorer.lits.clone();
-        lits.extend(extra);
-        self.check_lits(&lits, timeout_ms)
+        let stages: &[(bool, bool)] =
+            if dropped { &[(false, true), (true, false), (false, false)] } else { &[(false, false)] };
+        for (i, &(abstracted, linear_only)) in stages.iter().enumerate() {
+            let last = i + 1 == stages.len();
+            let lits = if linear_only { &linear } else { &all };
+            let ms = if last { timeout_ms } else { timeout_ms.min(STAGE_TIMEOUT_MS) };
+            let r = self.check_lits(lits, ms, abstracted, cores);
+            if r == Sat::Unsat {
+                if cores {
+                    let core = self.z3.unsat_core();
+                    let negated = extra.map(|e| (e.0, e.1));
+                    let key = if core.iter().any(|&k| lits.get(k).copied() == negated) {
+                        prop.unwrap_or(u32::MAX)
+                    } else {
+                        u32::MAX
+                    };
+                    let core: Vec<(u32, bool)> =
+                        core.iter().filter_map(|&k| lits.get(k).copied()).filter(|l| Some(*l) != negated).collect();
+                    self.explorer.cores.push((key, core));
+                }
+                return r;
+            }
+            if last {
+                return r;
+            }
+        }
+        Sat::Unknown
     }
 
-    fn check_lits(&mut self, lits: &[(u32, bool)], timeout_ms: u32) -> Sat {
+    /// One check of the conjunction of `lits`; with `cores`, each literal
+    /// is named `l<index>` for [`crate::z3::Z3::unsat_core`].
+    fn check_lits(&mut self, lits: &[(u32, bool)], timeout_ms: u32, abstracted: bool, cores: bool) -> Sat {
         let ids: Vec<u32> = lits.iter().map(|l| l.0).chain(self.vars.iter().map(|v| v.1)).collect();
-        self.load(&ids);
-        for &(id, v) in lits {
-            self.z3.send(&format!("(assert {})", literal(id, v)));
+        self.load(&ids, abstracted, cores);
+        for (i, &(id, v)) in lits.iter().enumerate() {
+            if cores {
+                self.z3.send(&format!("(assert (! {} :named l{i}))", literal(id, v)));
+            } else {
+                self.z3.send(&format!("(assert {})", literal(id, v)));
+            }
         }
         let t0 = Instant::now();
-        let r = self.z3.check(timeout_ms);
+        let r = self.z3.check(timeout_ms, self.explorer.blind_all, !self.bit_vectors_only);
         if std::env::var_os("SMT_VERBOSE").is_some() {
             let (paths, depth) = (self.explorer.pending.len(), self.explorer.decisions.len());
             eprintln!(
-                "    check: {r:?} in {:.2} s ({} literals, depth {depth}, {paths} pending)",
+                "    check{}: {r:?} in {:.2} s ({} literals, depth {depth}, {paths} pending)",
+                if abstracted { " (abstracted)" } else { "" },
                 t0.elapsed().as_secs_f64(),
                 lits.len()
             );
@@ -276,8 +389,107 @@ impl Ctx {
     }
 }
 
-/// Timeout of the first, weaker check of [`Ctx::check_with`].
-const LINEAR_TIMEOUT_MS: u32 = 10_000;
+/// Facts true of the real products, asserted when they are abstracted
+/// (`(id, a, b, sort)`: node `id` is `a * b`). For squares (`a == b`),
+/// per variant:
+///
+/// - `f32` (`fl(x x)`, rounded to nearest): NaN iff `x` is NaN, else
+///   `>= +0`; infinite if `x` is; zero if `x` is; and for two squares,
+///   `|x| <= |y|` implies `fl(x x) <= fl(y y)` (the real square is monotone
+///   in `|x|`, and rounding to nearest is monotone);
+/// - `I8F24` (`saturating_mul`: `floor(x^2 / 2^24)`, saturating to MAX as
+///   the operands' signs agree): `>= 0`; and for two squares,
+///   `saturating_abs(x) <= saturating_abs(y)` implies `x x <= y y` (`|MIN|`
+///   saturates to MAX, and both their squares saturate to MAX).
+///
+/// For every product `p = x y`, each way round:
+///
+/// - `f32`: a NaN factor gives NaN, two finite factors do not; if
+///   `|y| <= 1` and `p` is not NaN, `|p| <= |x|` (`|x y| <= |x|`, `|x|` is
+///   representable and rounding is monotone; `inf * 0`, the only other
+///   NaN, is excluded);
+/// - `I8F24`: if `saturating_abs(y) <= 1.0`, `saturating_abs(p) <=
+///   saturating_abs(x)` (`floor(x y / 2^24)` lies between `x` and `-|x|`
+///   rounded toward it, as `x` is an integer of LSBs; `MIN * -1`
+///   saturates to MAX = `|MIN|` saturated).
+fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<String> {
+    let squares: Vec<(String, String, Sort)> =
+        products.iter().filter(|p| p.1 == p.2).map(|p| (name(p.0), name(p.1), p.3)).collect();
+    let abs = |v: &str| format!("(ite (= {v} {MIN}) {MAX} (ite (bvslt {v} #x00000000) (bvneg {v}) {v}))");
+    let mut out = Vec::new();
+    for &(p, a, b, sort) in products {
+        let (p, a, b) = (name(p), name(a), name(b));
+        for (x, y) in [(&a, &b), (&b, &a)] {
+            match sort {
+                Sort::F32 => {
+                    out.push(format!("(=> (fp.isNaN {x}) (fp.isNaN {p}))"));
+                    out.push(format!(
+                        "(=> (and (fp.leq (fp.abs {y}) (fp #b0 #x7f #b00000000000000000000000)) (not (fp.isNaN {p}))) \
+                         (fp.leq (fp.abs {p}) (fp.abs {x})))"
+                    ));
+                }
+                Sort::Bv32 => {
+                    out.push(format!(
+                        "(=> (bvsle {} {}) (bvsle {} {}))",
+                        abs(y),
+                        crate::ctx::bv32_literal(1 << 24),
+                        abs(&p),
+                        abs(x)
+                    ));
+                }
+                Sort::Bool => {}
+            }
+        }
+        if sort == Sort::F32 {
+            let finite = |v: &str| format!("(not (or (fp.isNaN {v}) (fp.isInfinite {v})))");
+            out.push(format!("(=> (and {} {}) (not (fp.isNaN {p})))", finite(&a), finite(&b)));
+        }
+    }
+    for (p, x, sort) in &squares {
+        match sort {
+            Sort::F32 => {
+                out.push(format!("(ite (fp.isNaN {x}) (fp.isNaN {p}) (fp.leq (_ +zero 8 24) {p}))"));
+                out.push(format!("(=> (fp.isInfinite {x}) (fp.isInfinite {p}))"));
+                out.push(format!("(=> (fp.isZero {x}) (fp.isZero {p}))"));
+            }
+            Sort::Bv32 => out.push(format!("(bvsle #x00000000 {p})")),
+            Sort::Bool => {}
+        }
+    }
+    for (i, (p, x, sort)) in squares.iter().enumerate() {
+        for (q, y, _) in squares.iter().skip(i + 1).filter(|s| s.2 == *sort) {
+            match sort {
+                Sort::F32 => {
+                    for (p, x, q, y) in [(p, x, q, y), (q, y, p, x)] {
+                        out.push(format!("(=> (fp.leq (fp.abs {x}) (fp.abs {y})) (fp.leq {p} {q}))"));
+                    }
+                }
+                Sort::Bv32 => {
+                    for (p, x, q, y) in [(p, x, q, y), (q, y, p, x)] {
+                        out.push(format!("(=> (bvsle {} {}) (bvsle {p} {q}))", abs(x), abs(y)));
+                    }
+                }
+                Sort::Bool => {}
+            }
+        }
+    }
+    out
+}
+
+const MAX: &str = "#x7fffffff";
+const MIN: &str = "#x80000000";
+
+/// Timeout of the weaker stages of a property check ([`Ctx::check_with`]).
+const STAGE_TIMEOUT_MS: u32 = 60_000;
+
+/// What a [`Ctx::check_with`] is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Check {
+    /// Path feasibility (or a precondition): `Unknown` explores both.
+    Decision,
+    /// A property on a complete path: only `Unsat` proves it.
+    Property,
+}
 
 /// Runs `f` with a fresh context (and z3 process) on this thread.
 pub fn session<R>(f: impl FnOnce() -> R) -> R {
@@ -352,7 +564,7 @@ pub fn decide(cond: u32) -> bool {
     with(|c| {
         debug_assert_eq!(c.nodes.get(cond as usize).map(|n| n.sort), Some(Sort::Bool));
         if c.explorer.evaluate {
-            c.load(&[cond]);
+            c.load(&[cond], false, false);
             let v = c.z3.simplify(&name(cond));
             return match v.as_str() {
                 "true" => true,
@@ -372,14 +584,13 @@ pub fn decide(cond: u32) -> bool {
             // costs time, never soundness (its property check is then
             // trivially unsatisfiable).
             let ms = crate::z3::decide_timeout_ms();
-            let t = c.check_with(Some((cond, true)), ms);
-            if t == Sat::Unknown {
-                c.explorer.unknown += 1;
-            }
-            let f = if t == Sat::Unsat { Sat::Unsat } else { c.check_with(Some((cond, false)), ms) };
-            if f == Sat::Unknown {
-                c.explorer.unknown += 1;
-            }
+            let (t, f) = if c.explorer.blind_all {
+                c.explorer.blind += 1;
+                (Sat::Unknown, Sat::Unknown)
+            } else {
+                let t = c.check_with(Some((cond, true)), ms, Check::Decision);
+                (t, if t == Sat::Unsat { Sat::Unsat } else { c.check_with(Some((cond, false)), ms, Check::Decision) })
+            };
             if t == Sat::Unsat {
                 false
             } else if f != Sat::Unsat {
@@ -412,7 +623,9 @@ pub fn assume(cond: u32) {
             return;
         }
         let replaying = c.explorer.decisions.len() < c.explorer.prefix.len();
-        if !replaying && c.check_with(Some((cond, true)), crate::z3::property_timeout_ms()) == Sat::Unsat {
+        if !replaying
+            && c.check_with(Some((cond, true)), crate::z3::property_timeout_ms(), Check::Decision) == Sat::Unsat
+        {
             c.explorer.dead = true;
             return;
         }
@@ -435,6 +648,13 @@ pub struct Outcome {
     /// Feasibility checks z3 could not decide in time (both outcomes were
     /// explored).
     pub undecided: u64,
+    /// Feasibility checks left open because the path condition or the
+    /// decision contains a product of two non-constant terms (both
+    /// outcomes were explored; see `Ctx::check_with`).
+    pub blind: u64,
+    /// Property checks answered by an earlier path's unsatisfiable core
+    /// (see [`explore_blind`]).
+    pub reused: u64,
     /// Wall-clock time.
     pub time: Duration,
     /// `None`: the property holds on every path. `Some`: inputs for which
@@ -453,10 +673,26 @@ impl Outcome {
 /// path of `f` (for every value of every input `f` declares with [`var`]
 /// that satisfies its [`assume`]s). Stops at the first counterexample.
 /// Panics if no path is feasible (a vacuous precondition).
-pub fn explore(mut f: impl FnMut() -> Vec<u32>) -> Outcome {
+pub fn explore(f: impl FnMut() -> Vec<u32>) -> Outcome {
+    explore_with(false, f)
+}
+
+/// [`explore`], but every decision explores both outcomes without asking
+/// z3 whether they are feasible (infeasible paths included: each path's
+/// property is still checked under its own path condition, so this is
+/// sound), and a property check reuses the unsatisfiable cores of earlier
+/// paths: a path containing every literal of such a core is proved with no
+/// z3 call. Pays when most decisions do not matter to the property (each
+/// path's check then needs few of its literals) and feasibility checks are
+/// expensive (floating point).
+pub fn explore_blind(f: impl FnMut() -> Vec<u32>) -> Outcome {
+    explore_with(true, f)
+}
+
+fn explore_with(blind_all: bool, mut f: impl FnMut() -> Vec<u32>) -> Outcome {
     let t0 = Instant::now();
     let checks0 = with(|c| {
-        c.explorer = Explorer { pending: vec![Vec::new()], ..Explorer::default() };
+        c.explorer = Explorer { pending: vec![Vec::new()], blind_all, ..Explorer::default() };
         c.z3.checks
     });
     let (mut paths, mut discarded) = (0u64, 0u64);
@@ -479,7 +715,7 @@ pub fn explore(mut f: impl FnMut() -> Vec<u32>) -> Outcome {
             paths += 1;
             // One check per conjunct: smaller problems than their conjunction.
             for &prop in &props {
-                match c.check_with(Some((prop, false)), crate::z3::property_timeout_ms()) {
+                match c.check_with(Some((prop, false)), crate::z3::property_timeout_ms(), Check::Property) {
                     Sat::Unsat => {}
                     Sat::Unknown => panic!(
                         "z3 could not decide a property check within {} ms: the proof is NOT established",
@@ -499,15 +735,15 @@ pub fn explore(mut f: impl FnMut() -> Vec<u32>) -> Outcome {
             break;
         }
     }
-    let (checks, undecided) = with(|c| {
+    let (checks, undecided, blind, reused) = with(|c| {
         c.explorer.pending.clear();
-        (c.z3.checks - checks0, c.explorer.unknown)
+        (c.z3.checks - checks0, c.explorer.unknown, c.explorer.blind, c.explorer.reused)
     });
     assert!(
         paths > 0 || counterexample.is_some(),
         "vacuous: no path satisfies the preconditions ({discarded} discarded)"
     );
-    Outcome { paths, discarded, checks, undecided, time: t0.elapsed(), counterexample }
+    Outcome { paths, discarded, checks, undecided, blind, reused, time: t0.elapsed(), counterexample }
 }
 
 /// Runs `f` with decisions evaluated by z3's simplifier (every term must be
@@ -533,7 +769,7 @@ pub fn evaluate<R>(f: impl FnOnce() -> R) -> R {
 /// z3's simplification of node `id` (a value for a ground term).
 pub fn simplify(id: u32) -> String {
     with(|c| {
-        c.load(&[id]);
+        c.load(&[id], false, false);
         c.z3.simplify(&name(id))
     })
 }
@@ -542,7 +778,7 @@ pub fn simplify(id: u32) -> String {
 pub fn simplify_many(ids: &[u32]) -> Vec<String> {
     let names: Vec<String> = ids.iter().map(|&i| name(i)).collect();
     with(|c| {
-        c.load(ids);
+        c.load(ids, false, false);
         c.z3.simplify_many(&names)
     })
 }
@@ -551,11 +787,11 @@ pub fn simplify_many(ids: &[u32]) -> Vec<String> {
 /// path exploration; for the semantics tests).
 pub fn satisfiable(lits: &[u32]) -> bool {
     with(|c| {
-        c.load(lits);
+        c.load(lits, false, false);
         for &l in lits {
             c.z3.send(&format!("(assert {})", name(l)));
         }
-        match c.z3.check(crate::z3::property_timeout_ms()) {
+        match c.z3.check(crate::z3::property_timeout_ms(), false, true) {
             Sat::Sat => true,
             Sat::Unsat => false,
             Sat::Unknown => panic!("z3 could not decide a check"),

@@ -35,6 +35,9 @@ pub struct Proof {
     /// Not established within the test command's budget (z3 times out on
     /// some path): run only on request (`smt --extended`).
     pub extended: bool,
+    /// Explore every decision blind, reusing unsatisfiable cores
+    /// ([`ctx::explore_blind`]) instead of asking z3 at each decision.
+    pub blind: bool,
     /// Builds the property (inputs, preconditions, kernel code).
     pub build: fn(usize) -> Vec<B>,
 }
@@ -52,7 +55,8 @@ impl Proof {
     pub fn run(&self) -> Outcome {
         let j = self.joints.first().copied().unwrap_or(0);
         let build = self.build;
-        ctx::session(|| ctx::explore(|| build(j).into_iter().map(|b| b.0).collect()))
+        let f = || build(j).into_iter().map(|b| b.0).collect();
+        ctx::session(|| if self.blind { ctx::explore_blind(f) } else { ctx::explore(f) })
     }
 }
 
@@ -73,7 +77,7 @@ fn groups<K: PartialEq>(key: impl Fn(usize) -> K) -> Vec<Vec<usize>> {
 
 fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
     let v = S::VARIANT;
-    let one = |name, build| Proof { name, variant: v, joints: Vec::new(), extended: false, build };
+    let one = |name, build| Proof { name, variant: v, joints: Vec::new(), extended: false, blind: false, build };
     out.push(one("saturate", |_| props::saturate::<S>(|x, l| x.saturate(l))));
     out.push(one("clamp_between", |_| props::clamp_between::<S>()));
     // The control law sees (kp, vmax, deadband); group joints by their
@@ -82,7 +86,14 @@ fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
         let jc = &props::CONFIG.joints[j];
         (jc.kp.to_bits(), jc.max_velocity.to_bits(), props::CONFIG.deadband.to_bits())
     }) {
-        out.push(Proof { name: "control_law", variant: v, joints, extended: false, build: |j| props::control::<S>(j) });
+        out.push(Proof {
+            name: "control_law",
+            variant: v,
+            joints,
+            extended: false,
+            blind: false,
+            build: |j| props::control::<S>(j),
+        });
     }
     // (I8F24 has no NaN or infinity: nothing to absorb.)
     if S::VARIANT == SymF32::VARIANT {
@@ -90,6 +101,13 @@ fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
         out.push(one("observer coast: never absorbs NaN/inf", |_| props::observer_non_finite::<S>(true)));
     }
     out.push(one("observer coast: bounded move", |_| props::observer_coast::<S>(1e-5)));
+    out.push(one("soft-stop scale: in [0, 1]", |_| props::stop_scale::<S>(1)));
+    // Explored blind for the bit-blasting tactic and the product lemmas.
+    let blind = |name, build| Proof { name, variant: v, joints: Vec::new(), extended: false, blind: true, build };
+    out.push(blind("soft-stop output: finite, zero at the end, inside the envelope and prev", |_| {
+        props::stop_output::<S>(kernel::ramp::stop_output)
+    }));
+    out.push(blind("homing ramp: within the computed vel +- dv", |_| props::homing_ramp::<S>(kernel::ramp::toward)));
 }
 
 /// Every proof, for both variants.
@@ -102,6 +120,7 @@ pub fn all() -> Vec<Proof> {
         variant: SymF32::VARIANT,
         joints: Vec::new(),
         extended: true,
+        blind: false,
         build: |_| props::observer_between::<SymF32>(1e-5, false),
     });
     out.push(Proof {
@@ -109,41 +128,51 @@ pub fn all() -> Vec<Proof> {
         variant: SymFx::VARIANT,
         joints: Vec::new(),
         extended: false,
+        blind: false,
         build: |_| props::observer_between::<SymFx>(0.0, true),
     });
     // The interpolator sees its profile only: group joints by the concrete
-    // profile of each variant.
+    // profile of each variant. Explored blind (`ctx::explore_blind`): the
+    // braking test's decisions are expensive to decide and do not matter
+    // to the speed and acceleration bounds.
+    use props::InterpProp::{Acceleration, Finite, NeverPasses, Speed};
+    let interp = |variant, joints: Vec<usize>, name, extended, build| Proof {
+        name,
+        variant,
+        joints,
+        extended,
+        blind: true,
+        build,
+    };
     for joints in groups(props::joint_profile::<f32>) {
-        out.push(Proof {
-            name: "interpolator step: speed and acceleration bounds",
-            variant: SymF32::VARIANT,
-            joints: joints.clone(),
-            extended: true,
-            build: |j| props::interpolator::<SymF32>(j, false),
-        });
-        out.push(Proof {
-            name: "interpolator step: never passes a reachable target",
-            variant: SymF32::VARIANT,
-            joints,
-            extended: true,
-            build: |j| props::interpolator::<SymF32>(j, true),
-        });
+        let v = SymF32::VARIANT;
+        out.push(interp(v, joints.clone(), "interpolator step: new state finite", false, |j| {
+            props::interpolator::<SymF32>(j, Finite, props::advance)
+        }));
+        out.push(interp(v, joints.clone(), "interpolator step: |vel'| <= vmax + slack", false, |j| {
+            props::interpolator::<SymF32>(j, Speed, props::advance)
+        }));
+        out.push(interp(v, joints.clone(), "interpolator step: |vel' - vel| <= dv + slack", false, |j| {
+            props::interpolator::<SymF32>(j, Acceleration, props::advance)
+        }));
+        out.push(interp(v, joints, "interpolator step: never passes a reachable target", true, |j| {
+            props::interpolator::<SymF32>(j, NeverPasses, props::advance)
+        }));
     }
     for joints in groups(props::joint_profile::<Fx>) {
-        out.push(Proof {
-            name: "interpolator step: speed and acceleration bounds",
-            variant: SymFx::VARIANT,
-            joints: joints.clone(),
-            extended: true,
-            build: |j| props::interpolator::<SymFx>(j, false),
-        });
-        out.push(Proof {
-            name: "interpolator step: never passes a reachable target",
-            variant: SymFx::VARIANT,
-            joints,
-            extended: true,
-            build: |j| props::interpolator::<SymFx>(j, true),
-        });
+        let v = SymFx::VARIANT;
+        out.push(interp(v, joints.clone(), "interpolator step: new state finite", false, |j| {
+            props::interpolator::<SymFx>(j, Finite, props::advance)
+        }));
+        out.push(interp(v, joints.clone(), "interpolator step: |vel'| <= vmax + slack", false, |j| {
+            props::interpolator::<SymFx>(j, Speed, props::advance)
+        }));
+        out.push(interp(v, joints.clone(), "interpolator step: |vel' - vel| <= dv + slack", false, |j| {
+            props::interpolator::<SymFx>(j, Acceleration, props::advance)
+        }));
+        out.push(interp(v, joints, "interpolator step: never passes a reachable target", true, |j| {
+            props::interpolator::<SymFx>(j, NeverPasses, props::advance)
+        }));
     }
     out
 }

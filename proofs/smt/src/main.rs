@@ -32,11 +32,13 @@ fn main() {
                 let o = p.run();
                 let verdict = if o.proved() { "proved" } else { "COUNTEREXAMPLE" };
                 println!(
-                    "  {verdict:<14} {:>6.1} s  {:>4} paths  {:>5} checks ({} undecided)  {:<6} {:<12} {}",
+                    "  {verdict:<14} {:>6.1} s  {:>4} paths  {:>5} checks ({} undecided, {} left open, {} reused)  {:<6} {:<12} {}",
                     o.time.as_secs_f64(),
                     o.paths,
                     o.checks,
                     o.undecided,
+                    o.blind,
+                    o.reused,
                     p.variant,
                     p.joints_label(),
                     p.name

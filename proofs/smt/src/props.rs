@@ -11,6 +11,7 @@ use kernel::config::{ArmConfig, PAROL6};
 use kernel::control::control_law;
 use kernel::interp::{profile, Interpolator, Profile};
 use kernel::observer::{AlphaBeta, ObserverGains};
+use kernel::ramp;
 use kernel::Scalar;
 
 /// The configuration the proofs instantiate (the shipped one).
@@ -144,15 +145,45 @@ pub fn joint_profile<S: Scalar>(j: usize) -> Profile<S> {
     profile::<S>(jc.max_velocity, jc.setpoint_acceleration(), CONFIG.tick_hz)
 }
 
-/// One `Interpolator::advance` from any state with set-point and target
-/// in +-16 rad, velocity within the speed limit and cruising speed in
-/// `[0, vmax]` (every segment length's cruising speed): the new state is
-/// finite, the new velocity is within `vmax + slack` and changes by at most
-/// `dv + slack`; with `never_passes` instead: a set-point approaching a
-/// target it can stop at (the braking distance from its speed plus one
-/// tick's travel inside the distance left, or at rest) never passes it. The statement and the slack
-/// are `proofs/src/numeric.rs`'s `interpolator` (the Kani harness).
-pub fn interpolator<S: Sym>(j: usize, never_passes: bool) -> Vec<B> {
+/// A set-point step under proof: `(set-point, target, velocity, cruising
+/// speed, profile) -> (new set-point, new velocity)`.
+pub type Step<S> = fn(S, S, S, S, &Profile<S>) -> (S, S);
+
+/// The kernel's step: `Interpolator::advance` from that state.
+pub fn advance<S: Scalar>(sp: S, to: S, vel: S, speed: S, k: &Profile<S>) -> (S, S) {
+    Interpolator::from_parts(sp, to, vel, speed).advance(k)
+}
+
+/// The slack of the interpolator's bounds: the Kani harness's
+/// (`proofs/src/numeric.rs`): `2 eps tick_hz + 1e-5` rad/s.
+pub fn interpolator_slack<S: Scalar>(k: &Profile<S>) -> S {
+    k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5))
+}
+
+/// Which statement of [`interpolator`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InterpProp {
+    /// The new set-point and velocity are finite.
+    Finite,
+    /// `|vel'| <= vmax + slack`.
+    Speed,
+    /// `|vel' - vel| <= dv + slack`.
+    Acceleration,
+    /// A set-point approaching a target it can stop at never passes it.
+    NeverPasses,
+}
+
+/// One `Interpolator::advance` (`step`: the kernel's [`advance`]; the
+/// tests pass broken ones) from any state with set-point and target in
+/// +-16 rad, velocity within the speed limit and cruising speed in
+/// `[0, vmax]` (every segment length's cruising speed), for joint `j`'s
+/// profile, one statement `which` of: the new state is finite; the new
+/// velocity is within `vmax + slack`; it changes by at most `dv + slack`;
+/// a set-point approaching a target it can stop at (the braking distance
+/// from its speed plus one tick's travel inside the distance left, or at
+/// rest) never passes it. The statements and the slack are
+/// `proofs/src/numeric.rs`'s `interpolator` (the Kani harness).
+pub fn interpolator<S: Sym>(j: usize, which: InterpProp, step: Step<S>) -> Vec<B> {
     let k = joint_profile::<S>(j);
     let lim = S::from_f32(16.0);
     let (sp, to, vel, speed) = (S::var("setpoint"), S::var("target"), S::var("velocity"), S::var("speed"));
@@ -163,22 +194,88 @@ pub fn interpolator<S: Sym>(j: usize, never_passes: bool) -> Vec<B> {
         within(speed, S::ZERO, k.vmax),
     ])
     .assume();
-    let mut it = Interpolator::from_parts(sp, to, vel, speed);
-    let (sp2, vel2) = it.advance(&k);
-    let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
-    let dist = to.minus(sp).abs();
-    let approaching = B::all(&[to.t_gt(sp), vel.t_ge(S::ZERO)])
-        .or(B::all(&[to.t_lt(sp), vel.t_le(S::ZERO)]))
-        .or(B::all(&[to.t_eq(sp), vel.t_eq(S::ZERO)]));
-    let reach = vel.times(vel).times(k.inv_2a).plus(vel.abs().times(k.dt)).plus(k.eps).t_le(dist);
-    if never_passes {
-        vec![approaching.and(reach.or(vel.t_eq(S::ZERO))).implies(sp2.minus(sp).abs().t_le(dist))]
-    } else {
-        vec![
-            sp2.t_finite(),
-            vel2.t_finite(),
-            vel2.abs().t_le(k.vmax.plus(slack)),
-            vel2.minus(vel).abs().t_le(k.dv.plus(slack)),
-        ]
+    let (sp2, vel2) = step(sp, to, vel, speed, &k);
+    let slack = interpolator_slack(&k);
+    match which {
+        InterpProp::Finite => vec![sp2.t_finite(), vel2.t_finite()],
+        InterpProp::Speed => vec![vel2.abs().t_le(k.vmax.plus(slack))],
+        InterpProp::Acceleration => vec![vel2.minus(vel).abs().t_le(k.dv.plus(slack))],
+        InterpProp::NeverPasses => {
+            let dist = to.minus(sp).abs();
+            let approaching = B::all(&[to.t_gt(sp), vel.t_ge(S::ZERO)])
+                .or(B::all(&[to.t_lt(sp), vel.t_le(S::ZERO)]))
+                .or(B::all(&[to.t_eq(sp), vel.t_eq(S::ZERO)]));
+            let reach = vel.times(vel).times(k.inv_2a).plus(vel.abs().times(k.dt)).plus(k.eps).t_le(dist);
+            vec![approaching.and(reach.or(vel.t_eq(S::ZERO))).implies(sp2.minus(sp).abs().t_le(dist))]
+        }
     }
+}
+
+/// `y` lies in the closed interval between `a` and `b` (either order).
+fn between<S: Sym>(y: S, a: S, b: S) -> B {
+    (a.t_le(y).and(y.t_le(b))).or(b.t_le(y).and(y.t_le(a)))
+}
+
+/// `ramp::stop_scale` for every `inv_stop` (NaN and infinities included):
+/// finite and in `[0, 1]`. With `left == 1` the product `inv_stop * left`
+/// takes every value of the type, so the bound holds for every `left`.
+pub fn stop_scale<S: Sym>(left: i32) -> Vec<B> {
+    let y = ramp::stop_scale(S::var("inv_stop"), left);
+    vec![within(y, S::ZERO, S::ONE)]
+}
+
+/// A soft-stop output function under proof (the kernel's
+/// `ramp::stop_output`; the tests pass broken ones).
+pub type StopOutput<S> = fn(S, S, S, Option<(S, S)>, bool) -> S;
+
+/// The soft-stop ramp's per-axis output (`ramp::stop_output`, as
+/// `Supervisor::ramp` calls it), following (`track`) or not, before or
+/// after the ramp's end, for every `v0`, previous output `prev`, braking
+/// command and follow step (NaN and infinities included) and every scale
+/// in `[0, 1]` (what `stop_scale` returns): the output is finite; exactly
+/// `+0` once the ramp is over; between zero and `prev` when `prev` is
+/// finite (never above it in magnitude, never of the other sign); between
+/// zero and the envelope `v0 * scale` (rounded) unless that is NaN (so of
+/// `v0`'s sign or zero); and for a finite `v0` no larger than `|v0|`.
+pub fn stop_output<S: Sym>(f: StopOutput<S>) -> Vec<B> {
+    let (v0, scale, prev) = (S::var("v0"), S::var("scale"), S::var("prev"));
+    let (brake, step) = (S::var("brake"), S::var("step"));
+    within(scale, S::ZERO, S::ONE).assume();
+    let track = B::var("track").decide();
+    let done = B::var("done").decide();
+    let out = f(v0, scale, prev, if track { Some((brake, step)) } else { None }, done);
+    let x = v0.times(scale);
+    vec![
+        out.t_finite(),
+        if done { out.t_same(S::ZERO) } else { B::TRUE },
+        prev.t_finite().implies(between(out, S::ZERO, prev)),
+        x.t_eq(x).implies(between(out, S::ZERO, x)),
+        v0.t_finite().implies(out.abs().t_le(v0.abs())),
+    ]
+}
+
+/// A homing ramp under proof (the kernel's `ramp::toward`).
+pub type Toward<S> = fn(S, S, S) -> S;
+
+/// The homing ramp (`ramp::toward`): from a velocity within the kernel's
+/// plausibility bound (64 rad/s) with a step `dv` in `[0, 1]` rad/s (the
+/// joints' `max_acceleration / tick_hz` is far below), toward any `want`
+/// (NaN and infinities included): the new velocity is finite, between the
+/// computed (rounded) `vel - dv` and `vel + dv`, and `want` itself when
+/// `want` is inside. In I8F24 (exact here: no saturation within
+/// +-65 rad/s) also `|v - vel| <= dv`. (In f32, `|v - vel| <= dv + 2e-5`,
+/// the rounding of `vel +- dv` included, is not stated: z3 did not decide
+/// it within 120 s.)
+pub fn homing_ramp<S: Sym>(f: Toward<S>) -> Vec<B> {
+    let (vel, want, dv) = (S::var("vel"), S::var("want"), S::var("dv"));
+    let w = S::from_f32(64.0);
+    within(vel, w.neg(), w).and(within(dv, S::ZERO, S::ONE)).assume();
+    let v = f(vel, want, dv);
+    let (lo, hi) = (vel.minus(dv), vel.plus(dv));
+    vec![
+        v.t_finite(),
+        within(v, lo, hi),
+        within(want, lo, hi).implies(v.t_eq(want)),
+        if S::VARIANT == "I8F24" { v.minus(vel).abs().t_le(dv) } else { B::TRUE },
+    ]
 }
