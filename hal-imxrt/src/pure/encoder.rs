@@ -168,6 +168,11 @@ const _: () = assert!(DecodeConfig::DEFAULT.is_valid());
 
 /// Decode one window: `high_ticks` QuadTimer ticks of HIGH over
 /// `elapsed_cycles` CPU cycles.
+///
+/// For any config (one `u64` division). The tick decodes its whole frames
+/// with [`super::frame::decode_frame`], this function with
+/// [`super::frame::FRAME_DECODE`] on 32-bit arithmetic (equal for every
+/// input; `proofs/exhaustive`).
 pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeConfig) -> EncoderReading {
     if cfg.cycles_per_tick == 0 || elapsed_cycles < cfg.min_window_cycles {
         return EncoderReading::Lost(LossReason::WindowTooShort);

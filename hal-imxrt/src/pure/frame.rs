@@ -35,9 +35,26 @@
 //!
 //! # Decode
 //!
-//! `count = round(4119 * high_cycles / period_cycles) - 16`, via
-//! [`super::encoder::decode_window`] with a frame-sized [`FRAME_DECODE`]
-//! config (it range-checks duty, stuck high/low).
+//! `count = round(4119 * high_cycles / period_cycles) - 16`, by
+//! [`decode_frame`]: [`super::encoder::decode_window`] with a frame-sized
+//! [`FRAME_DECODE`] config (it range-checks duty, stuck high/low), on
+//! 32-bit arithmetic.
+//!
+//! # No 64-bit division in the tick (issue 14)
+//!
+//! The decoder runs in the tick interrupt, six times per tick. Its divisions
+//! are 32-bit: the frame decode ([`decode_frame`]), the period measurement
+//! (rounded quotients of a `u32` span by a `u32` divisor, the frame-count
+//! tolerance by a multiplication) and the edge prediction (floor division
+//! of an `i32` time by the `u32` period) each run on the core's 32-bit
+//! divider. Before issue 14 they divided `u64` / `i64` numbers (compiler-
+//! builtins' `__aeabi_uldivmod` / `__aeabi_ldivmod`, 7 calls, about 744 of
+//! the PIT handler's instructions per tick). The former code is kept as
+//! [`FrameDecoder::reference_update`] (with [`super::encoder::decode_window`]
+//! for the decode); the results are equal for every input (the bounds are
+//! stated at each division; `proofs/exhaustive` sweeps [`decode_frame`] over
+//! every period and high time, `hal-imxrt/tests/frame_reference.rs` runs
+//! both decoders on random and simulated snapshot streams).
 //!
 //! # Oscillator tolerance and frames shorter than a tick
 //!
@@ -80,7 +97,7 @@
 //!   input filter, which delays both edges alike).
 
 use super::clock::CYCLES_PER_QTIMER_TICK;
-use super::encoder::{decode_window, DecodeConfig, EncoderReading, LossReason, FRAME_CLOCKS};
+use super::encoder::{decode_window, DecodeConfig, EncoderReading, LossReason, FRAME_CLOCKS, MAX_COUNT, START_CLOCKS};
 
 /// Nominal frame period in CPU cycles (4119 * 250 ns at 600 MHz).
 pub const NOMINAL_PERIOD_CYCLES: u32 = FRAME_CLOCKS * 150;
@@ -121,6 +138,118 @@ pub const FRAME_DECODE: DecodeConfig = DecodeConfig {
     edge_margin_ticks: 1,
 };
 const _: () = assert!(FRAME_DECODE.is_valid());
+
+/// Frame decode on 32-bit arithmetic: exactly
+/// `decode_window(high_ticks as u32, period_cycles, &FRAME_DECODE)` for
+/// every `high_ticks` and `period_cycles` (checked for every period in
+/// `MIN_PERIOD_CYCLES - 1 ..= MAX_PERIOD_CYCLES + 1` and every `u16` high
+/// time by `proofs/exhaustive`; outside that range both return at the same
+/// comparison), with two 32-bit divisions where `decode_window` divides a
+/// `u64`.
+///
+/// `decode_window` computes `high_x16 = (N + E / 2) / E` with
+/// `N = 4119 * 16 * H * 32` and `E = period_cycles`. Past its range checks
+/// `H * 32 < E <= MAX_PERIOD_CYCLES < 2^20`, so `A = 4119 * H < 2^27`, and
+/// with `A = q E + r` (`r < E`):
+/// `(512 A + E / 2) / E = 512 q + (512 r + E / 2) / E`, where
+/// `512 r + E / 2 < 512 E + E / 2 < 2^32` (const assertion below).
+pub const fn decode_frame(high_ticks: u16, period_cycles: u32) -> EncoderReading {
+    const CPT: u32 = FRAME_DECODE.cycles_per_tick;
+    const MARGIN: u32 = FRAME_DECODE.edge_margin_ticks;
+    /// `16 * cycles_per_tick`: the numerator's factor besides `4119 * H`.
+    const X16: u32 = 16 * CPT;
+    const LO: u32 = START_CLOCKS.saturating_sub(FRAME_DECODE.range_tolerance_clocks) * 16;
+    const HI: u32 = (START_CLOCKS + MAX_COUNT as u32 + FRAME_DECODE.range_tolerance_clocks) * 16;
+    let e = period_cycles;
+    if e < FRAME_DECODE.min_window_cycles {
+        return EncoderReading::Lost(LossReason::WindowTooShort);
+    }
+    if e > FRAME_DECODE.max_window_cycles {
+        return EncoderReading::Lost(LossReason::WindowTooLong);
+    }
+    // MIN_PERIOD_CYCLES <= e <= MAX_PERIOD_CYCLES: not zero, below 2^20
+    let window_ticks = e / CPT;
+    let h = high_ticks as u32;
+    if h > window_ticks + MARGIN {
+        return EncoderReading::Lost(LossReason::Implausible);
+    }
+    if h <= MARGIN {
+        return EncoderReading::Lost(LossReason::NoSignal);
+    }
+    if h + MARGIN >= window_ticks {
+        return EncoderReading::Lost(LossReason::StuckHigh);
+    }
+    // h < window_ticks: h * CPT < e, so a < FRAME_CLOCKS * MAX / CPT < 2^27
+    // and q < FRAME_CLOCKS / CPT (129)
+    let a = FRAME_CLOCKS * h;
+    let (q, r) = (a / e, a % e);
+    let high_x16 = q * X16 + (r * X16 + e / 2) / e;
+    if high_x16 < LO || high_x16 > HI {
+        return EncoderReading::Lost(LossReason::DutyOutOfRange);
+    }
+    let high_clocks = (high_x16 + 8) / 16;
+    let count = if high_clocks <= START_CLOCKS {
+        0
+    } else if high_clocks - START_CLOCKS >= MAX_COUNT as u32 {
+        MAX_COUNT
+    } else {
+        (high_clocks - START_CLOCKS) as u16
+    };
+    EncoderReading::Count(count)
+}
+
+// decode_frame's bounds: the frame config is the one it was written for, a
+// window's ticks times the frame's clocks fits, and so does the second
+// division's numerator.
+const _: () = assert!(FRAME_DECODE.cycles_per_tick == 32 && FRAME_DECODE.edge_margin_ticks == 1);
+const _: () = assert!(FRAME_DECODE.min_window_cycles == MIN_PERIOD_CYCLES && MIN_PERIOD_CYCLES > 0);
+const _: () = assert!(FRAME_DECODE.max_window_cycles == MAX_PERIOD_CYCLES && MAX_PERIOD_CYCLES < 1 << 20);
+const _: () = assert!(FRAME_CLOCKS as u64 * ((MAX_PERIOD_CYCLES / 32) as u64) < 1 << 27);
+const _: () = assert!((MAX_PERIOD_CYCLES as u64) * 16 * 32 + MAX_PERIOD_CYCLES as u64 / 2 <= u32::MAX as u64);
+
+/// `round(n / d)`, halves up, and the distance `|n - round(n / d) d|`: for
+/// `d > 0` exactly `(n + d / 2) / d` of the `u64` numbers (the former
+/// period measurement), on the 32-bit divider. With `n = q d + r`,
+/// `(q d + r + d / 2) / d = q + (r + d / 2) / d` and `r + d / 2 < 2 d`, so
+/// the quotient is `q` or `q + 1`, the latter iff `r >= d - d / 2`. It fits:
+/// `q + 1 <= 2^31` for `d >= 2`, and for `d = 1` `r = 0` never rounds up.
+/// `(0, 0)` for `d = 0` (the `u64` code divided by zero; the decoder never
+/// does: its period is at least `NOMINAL_PERIOD_CYCLES / 2`).
+const fn div_round_dist(n: u32, d: u32) -> (u32, u32) {
+    if d == 0 {
+        return (0, 0);
+    }
+    let (q, r) = (n / d, n % d);
+    if r >= d - d / 2 {
+        (q + 1, d - r)
+    } else {
+        (q, r)
+    }
+}
+
+/// `(d.div_euclid(p), d.rem_euclid(p))` of the `i64` numbers (the former
+/// edge prediction) for an `i32` time and a `u32` period, on the 32-bit
+/// divider: the magnitude `a = |d| <= 2^31` divides unsigned (`a = q p + r`),
+/// and for `d < 0`, `d = -q p - r = -(q + 1) p + (p - r)` when `r > 0`. The
+/// floor quotient fits an `i32` (`-2^31` only for `d = -2^31`, `p = 1`).
+/// `(0, 0)` for `p = 0` (never called with it).
+const fn floor_div_rem(d: i32, p: u32) -> (i32, u32) {
+    if p == 0 {
+        return (0, 0);
+    }
+    let a = d.unsigned_abs();
+    let (q, r) = (a / p, a % p);
+    if d >= 0 {
+        // q <= a < 2^31
+        (q as i32, r)
+    } else if r == 0 {
+        // q <= 2^31: -(2^31) wraps to itself, i32::MIN
+        ((q as i32).wrapping_neg(), 0)
+    } else {
+        // p >= 2, so q < 2^30; !q = -(q + 1)
+        (!(q as i32), p - r)
+    }
+}
 
 /// One per-tick read of a capture channel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -233,7 +362,41 @@ impl FrameDecoder {
     /// prediction is possible (period not measured, no phase, a predicted
     /// edge within [`EDGE_MARGIN_CYCLES`] of `t0` or `t1`, or a phase too
     /// old).
+    ///
+    /// Equal to [`FrameDecoder::reference_predicted_edges`] (the former
+    /// `i64` code) for every state and window: the times since the phase
+    /// are `i32`, the `i64` bound `|d| > 2000 p` is the same in `u64`
+    /// (`|d| <= 2^31`, `2000 p < 2^43`: a multiplication), the margin test
+    /// `m <= r <= p - m` is `r >= m && r + m <= p`, and the floor quotients
+    /// and remainders come from [`floor_div_rem`] (32-bit); their `i64`
+    /// difference cast to `u32` is their wrapping `i32` difference.
     fn predicted_edges(&self, t0: u32, t1: u32) -> Option<u32> {
+        let ph = self.phase?;
+        if !self.measured || self.period == 0 {
+            return None;
+        }
+        let p = self.period;
+        let (d0, d1) = (t0.wrapping_sub(ph) as i32, t1.wrapping_sub(ph) as i32);
+        // a phase more than ~2 000 frames old: prediction error too large
+        let old = |d: i32| d.unsigned_abs() as u64 > 2_000 * p as u64;
+        if old(d0) || old(d1) || d1 < d0 {
+            return None;
+        }
+        let m = EDGE_MARGIN_CYCLES;
+        let clear = |r: u32| r >= m && r as u64 + m as u64 <= p as u64;
+        let (q0, r0) = floor_div_rem(d0, p);
+        let (q1, r1) = floor_div_rem(d1, p);
+        if !clear(r0) || !clear(r1) {
+            return None;
+        }
+        Some(q1.wrapping_sub(q0) as u32)
+    }
+
+    /// `FrameDecoder::predicted_edges` as it was before issue 14 (`i64`
+    /// `div_euclid` / `rem_euclid`): the reference the 32-bit code is
+    /// checked against.
+    #[doc(hidden)]
+    pub fn reference_predicted_edges(&self, t0: u32, t1: u32) -> Option<u32> {
         let ph = self.phase?;
         if !self.measured || self.period == 0 {
             return None;
@@ -276,7 +439,66 @@ impl FrameDecoder {
     /// edges); otherwise only the ratio counts, over at most
     /// [`FIRST_SPAN_FRAMES`] frames until the period is measured, and
     /// within 0.2 frame of a whole number.
+    ///
+    /// 32-bit: every quotient is [`div_round_dist`] of the `u32` span (equal
+    /// to the former `(span + d / 2) / d` in `u64`), and the former
+    /// tolerance `1000 |span - frames p| / p > 200` is
+    /// `1000 |span - frames p| >= 201 p` (`p > 0`), a multiplication. The
+    /// resulting state equals [`FrameDecoder::reference_timestamp`]'s.
     fn timestamp(&mut self, edge: u32, t: u32) {
+        self.phase = Some(t);
+        let quiet = core::mem::take(&mut self.quiet_since_anchor);
+        let Some((n0, t0)) = self.anchor else {
+            self.anchor = Some((edge, t));
+            return;
+        };
+        let span = t.wrapping_sub(t0);
+        let by_index = edge.wrapping_sub(n0);
+        if quiet && by_index > 0 {
+            let (est, _) = div_round_dist(span, by_index);
+            if (TICK_CYCLES..=MAX_PERIOD_CYCLES).contains(&est) {
+                self.period = est;
+                self.measured = true;
+                if by_index >= PERIOD_ANCHOR_FRAMES {
+                    self.anchor = Some((edge, t));
+                } else {
+                    self.quiet_since_anchor = true;
+                }
+                return;
+            }
+        }
+        // p >= NOMINAL_PERIOD_CYCLES / 2 (the only values `period` takes)
+        let p = self.period;
+        let (frames, dist) = div_round_dist(span, p);
+        let max_frames = if self.measured { 2 * PERIOD_ANCHOR_FRAMES } else { FIRST_SPAN_FRAMES };
+        // |span / p - frames| > 0.2 frame, in whole thousandths as before:
+        // floor(1000 dist / p) > 200  <=>  1000 dist >= 201 p
+        let off = 1000 * dist as u64 >= 201 * p as u64;
+        if frames == 0 || frames > max_frames || off {
+            // too far for an unambiguous frame count, or inconsistent
+            // (a glitch, a missed edge): start again from this edge
+            self.anchor = Some((edge, t));
+            return;
+        }
+        // 1 <= frames <= 2 * PERIOD_ANCHOR_FRAMES
+        let (est, _) = div_round_dist(span, frames);
+        if (NOMINAL_PERIOD_CYCLES / 2..=MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2).contains(&est) {
+            self.period = est;
+            self.measured = true;
+            if frames >= PERIOD_ANCHOR_FRAMES {
+                self.anchor = Some((edge, t));
+            } else {
+                self.quiet_since_anchor = quiet;
+            }
+        } else {
+            self.anchor = Some((edge, t));
+        }
+    }
+
+    /// `FrameDecoder::timestamp` as it was before issue 14 (`u64`
+    /// divisions): the reference the 32-bit code is checked against.
+    #[doc(hidden)]
+    pub fn reference_timestamp(&mut self, edge: u32, t: u32) {
         self.phase = Some(t);
         let quiet = core::mem::take(&mut self.quiet_since_anchor);
         let Some((n0, t0)) = self.anchor else {
@@ -326,6 +548,29 @@ impl FrameDecoder {
     /// Process one snapshot; returns the reading for this tick (the count of
     /// the most recent complete frame, or why there is none).
     pub fn update(&mut self, s: Snapshot) -> EncoderReading {
+        self.step::<false>(s)
+    }
+
+    /// [`FrameDecoder::update`] with the arithmetic as it was before issue 14
+    /// (`reference_predicted_edges`, `reference_timestamp`,
+    /// [`decode_window`]): the same control flow, so the two must give the
+    /// same reading and the same state for every snapshot stream
+    /// (`hal-imxrt/tests/frame_reference.rs`).
+    #[doc(hidden)]
+    pub fn reference_update(&mut self, s: Snapshot) -> EncoderReading {
+        self.step::<true>(s)
+    }
+
+    fn edges_in<const REFERENCE: bool>(&self, t0: u32, t1: u32) -> Option<u32> {
+        if REFERENCE {
+            self.reference_predicted_edges(t0, t1)
+        } else {
+            self.predicted_edges(t0, t1)
+        }
+    }
+
+    /// One snapshot, with the 32-bit arithmetic or (`REFERENCE`) the former.
+    fn step<const REFERENCE: bool>(&mut self, s: Snapshot) -> EncoderReading {
         let prev_t = self.last_t.replace(s.cycles);
         let mut fresh = false;
         // Does this window hold exactly the edges IEF reports (0 or 1)? Only
@@ -334,7 +579,7 @@ impl FrameDecoder {
             self.since_quiet = if s.ief { self.since_quiet.saturating_add(1) } else { 0 };
         }
         let clean = if self.fast() {
-            match prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) {
+            match prev_t.and_then(|t0| self.edges_in::<REFERENCE>(t0, s.cycles)) {
                 Some(n) => n == u32::from(s.ief),
                 None => false,
             }
@@ -361,7 +606,7 @@ impl FrameDecoder {
             if s.consistent && s.ief {
                 // restart the chain at this capture only if it is this
                 // window's single edge (otherwise wait for the next one)
-                let single = prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) == Some(1);
+                let single = prev_t.and_then(|t0| self.edges_in::<REFERENCE>(t0, s.cycles)) == Some(1);
                 if single {
                     self.last_capt = Some(s.capt);
                 }
@@ -382,7 +627,11 @@ impl FrameDecoder {
             let since = s.cntr.wrapping_sub(s.capt) as u32 * CYCLES_PER_QTIMER_TICK;
             if since < self.period.min(MIN_PERIOD_CYCLES) && self.stamped != Some(s.capt) {
                 self.stamped = Some(s.capt);
-                self.timestamp(self.edges, s.cycles.wrapping_sub(since));
+                if REFERENCE {
+                    self.reference_timestamp(self.edges, s.cycles.wrapping_sub(since));
+                } else {
+                    self.timestamp(self.edges, s.cycles.wrapping_sub(since));
+                }
             }
         }
         if !fresh {
@@ -401,7 +650,8 @@ impl FrameDecoder {
                 self.break_chain();
                 EncoderReading::Lost(if s.input_high { LossReason::StuckHigh } else { LossReason::NoSignal })
             }
-            Some(h) => decode_window(h as u32, self.period, &FRAME_DECODE),
+            Some(h) if REFERENCE => decode_window(h as u32, self.period, &FRAME_DECODE),
+            Some(h) => decode_frame(h, self.period),
             None => {
                 if self.age > MAX_FRAME_AGE && self.state == NoFrame::Starting {
                     self.state = NoFrame::Stale;
@@ -496,6 +746,204 @@ mod tests {
                 r
             })
             .collect()
+    }
+
+    /// splitmix64: a small deterministic generator for the reference checks.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        fn u32(&mut self) -> u32 {
+            (self.next() >> 32) as u32
+        }
+        fn below(&mut self, n: u32) -> u32 {
+            ((self.u32() as u64 * n as u64) >> 32) as u32
+        }
+        /// A `u32` biased to boundaries: small, near 2^31, near 2^32, or any.
+        fn edgy(&mut self) -> u32 {
+            match self.below(6) {
+                0 => self.below(4),
+                1 => u32::MAX - self.below(4),
+                2 => (1u32 << 31).wrapping_add(self.below(8)).wrapping_sub(4),
+                3 => self.u32() >> self.below(32),
+                _ => self.u32(),
+            }
+        }
+        /// A period: every value the decoder's `period` takes is in
+        /// `NOMINAL / 2 ..= MAX + MAX / 2`; also tiny and huge ones.
+        fn period(&mut self) -> u32 {
+            match self.below(8) {
+                0 => 1 + self.below(3000),
+                1 => self.edgy().max(1),
+                2 => [
+                    NOMINAL_PERIOD_CYCLES / 2,
+                    MIN_PERIOD_CYCLES,
+                    TICK_CYCLES,
+                    NOMINAL_PERIOD_CYCLES,
+                    MAX_PERIOD_CYCLES,
+                    MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2,
+                ][self.below(6) as usize]
+                    .wrapping_add(self.below(5))
+                    .wrapping_sub(2),
+                _ => {
+                    NOMINAL_PERIOD_CYCLES / 2
+                        + self.below(MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2 - NOMINAL_PERIOD_CYCLES / 2 + 1)
+                }
+            }
+        }
+    }
+
+    /// `div_round_dist` is the former `u64` rounded quotient (and the
+    /// distance the tolerance used) for random and boundary operands: `n`
+    /// near a multiple of `d` and near the rounding point.
+    #[test]
+    fn div_round_dist_equals_the_u64_quotient() {
+        let mut rng = Rng(1);
+        let check = |n: u32, d: u32| {
+            let (n64, d64) = (n as u64, d as u64);
+            let q = (n64 + d64 / 2) / d64;
+            let (got, dist) = div_round_dist(n, d);
+            assert_eq!(got as u64, q, "{n} / {d}");
+            assert_eq!(dist as u64, n64.abs_diff(q * d64), "{n} / {d}");
+        };
+        for d in 1..=64u32 {
+            for n in (0..=300u32).chain(u32::MAX - 300..=u32::MAX) {
+                check(n, d);
+            }
+        }
+        for _ in 0..300_000 {
+            let d = rng.period();
+            let q = rng.edgy() / d;
+            // r around 0, d / 2 and d
+            let h = d / 2;
+            for r in [0, 1, h.wrapping_sub(1), h, h + 1, d - h, d - 1, rng.below(d)] {
+                if r >= d {
+                    continue;
+                }
+                if let Some(n) = q.checked_mul(d).and_then(|x| x.checked_add(r)) {
+                    check(n, d);
+                }
+            }
+            check(rng.edgy(), d);
+        }
+        assert_eq!(div_round_dist(12345, 0), (0, 0));
+    }
+
+    /// `floor_div_rem` is `i64` `div_euclid` / `rem_euclid` for random and
+    /// boundary `i32` times and periods.
+    #[test]
+    fn floor_div_rem_equals_the_i64_euclid() {
+        let mut rng = Rng(2);
+        let check = |d: i32, p: u32| {
+            let (d64, p64) = (d as i64, p as i64);
+            assert_eq!(floor_div_rem(d, p), (d64.div_euclid(p64) as i32, d64.rem_euclid(p64) as u32), "{d} / {p}");
+        };
+        for p in 1..=40u32 {
+            for d in (-300..=300).chain(i32::MIN..=i32::MIN + 300).chain(i32::MAX - 300..=i32::MAX) {
+                check(d, p);
+            }
+        }
+        for _ in 0..300_000 {
+            let p = rng.period();
+            let k = (rng.edgy() as i32) / p.min(i32::MAX as u32) as i32;
+            for r in [-1i64, 0, 1, 999, 1000, 1001, p as i64 - 1001, p as i64 - 1000, p as i64 - 1, rng.below(p) as i64]
+            {
+                if let Ok(d) = i32::try_from(k as i64 * p as i64 + r) {
+                    check(d, p);
+                }
+            }
+            check(rng.edgy() as i32, p);
+        }
+        assert_eq!(floor_div_rem(-5, 0), (0, 0));
+    }
+
+    /// A decoder state with random period, phase and anchor (reachable or
+    /// not), for the per-function reference checks.
+    fn random_state(rng: &mut Rng) -> FrameDecoder {
+        let mut d = FrameDecoder::new();
+        d.period = rng.period();
+        d.measured = rng.below(4) != 0;
+        d.phase = (rng.below(8) != 0).then(|| rng.edgy());
+        d.anchor = (rng.below(8) != 0).then(|| (rng.edgy(), rng.edgy()));
+        d.quiet_since_anchor = rng.below(2) == 0;
+        d
+    }
+
+    /// `predicted_edges` equals the former `i64` code for random states and
+    /// windows, with window ends near predicted edges and the margin.
+    #[test]
+    fn predicted_edges_equals_the_reference() {
+        let mut rng = Rng(3);
+        let mut some = 0u32;
+        for _ in 0..400_000 {
+            let d = random_state(&mut rng);
+            let ph = d.phase.unwrap_or(0);
+            let p = d.period;
+            let near = |rng: &mut Rng| {
+                let k = rng.below(2_100) as i64 - 1_050;
+                let r = [0i64, 999, 1000, 1001, p as i64 - 1000, p as i64 - 999, rng.below(p) as i64]
+                    [rng.below(7) as usize];
+                ph.wrapping_add((k * p as i64 + r) as u32)
+            };
+            let (t0, t1) = match rng.below(3) {
+                0 => (rng.edgy(), rng.edgy()),
+                1 => (near(&mut rng), near(&mut rng)),
+                _ => {
+                    let t0 = near(&mut rng);
+                    (t0, t0.wrapping_add(TICK_CYCLES - 3000 + rng.below(6000)))
+                }
+            };
+            let got = d.predicted_edges(t0, t1);
+            assert_eq!(got, d.reference_predicted_edges(t0, t1), "{d:?} {t0} {t1}");
+            some += u32::from(got.is_some());
+        }
+        assert!(some > 50_000, "{some}");
+    }
+
+    /// `timestamp` leaves the state the former `u64` code leaves, for random
+    /// states, edge indices and times (spans near whole frames).
+    #[test]
+    fn timestamp_equals_the_reference() {
+        let mut rng = Rng(4);
+        let mut measured = 0u32;
+        for _ in 0..400_000 {
+            let d = random_state(&mut rng);
+            let (n0, t0) = d.anchor.unwrap_or((0, 0));
+            let frames = rng.below(140);
+            let edge = match rng.below(3) {
+                0 => rng.edgy(),
+                _ => n0.wrapping_add(frames),
+            };
+            let mut d = d;
+            if rng.below(4) == 0 {
+                // 201 p / 1000 whole: the tolerance's boundary is hit exactly
+                d.period = (d.period / 1000).max(1) * 1000;
+            }
+            let p = if rng.below(2) == 0 { d.period } else { rng.period() };
+            // the 0.2-frame tolerance's boundary (floor(1000 dist / p) = 200
+            // or 201), the rounding point (half a frame), or anywhere
+            let tol = (201 * p as u64).div_ceil(1000) as i64;
+            let jitter = match rng.below(4) {
+                0 => [tol, tol - 1, -tol, 1 - tol][rng.below(4) as usize],
+                1 => [(p / 2) as i64, (p / 2) as i64 + 1, -((p / 2) as i64), (p / 2) as i64 - 1][rng.below(4) as usize],
+                _ => rng.below(p / 2 + 1) as i64 - (p / 4) as i64,
+            };
+            let t = match rng.below(3) {
+                0 => rng.edgy(),
+                _ => t0.wrapping_add((frames as i64 * p as i64 + jitter) as u32),
+            };
+            let (mut a, mut b) = (d, d);
+            a.timestamp(edge, t);
+            b.reference_timestamp(edge, t);
+            assert_eq!(a, b, "{d:?} {edge} {t}");
+            measured += u32::from(a.measured && !d.measured || a.period != d.period);
+        }
+        assert!(measured > 20_000, "{measured}");
     }
 
     #[test]
