@@ -11,6 +11,7 @@
 //! the scenario tests, the property tests and the model exploration check
 //! it on every tick they run.
 
+use super::params::AxisParams;
 use super::supervisor::Mode;
 use super::{Kernel, ALL};
 use crate::homing::Phase;
@@ -48,11 +49,9 @@ impl<S: Scalar> Kernel<S> {
         let faulted = self.mode == Mode::Fault;
         let latched_ok = faulted == self.fault.is_some();
         let at_rest = matches!(self.mode, Mode::Boot | Mode::Unhomed | Mode::SoftEstop | Mode::Fault);
-        let outputs_ok = self
-            .last_out
-            .iter()
-            .zip(self.p.axes.iter())
-            .all(|(o, p)| o.is_finite() && o.abs() <= p.vmax && (!at_rest || *o == S::ZERO));
+        let output_ok =
+            |(o, p): (&S, &AxisParams<S>)| o.is_finite() && o.abs() <= p.vmax && (!at_rest || *o == S::ZERO);
+        let outputs_ok = self.last_out.iter().zip(self.p.axes.iter()).all(output_ok);
         let homed_ok = self.mode != Mode::Operational || self.homed == ALL;
         let phases_ok = self.mode == Mode::Homing || self.axes.iter().all(|a| a.homing.phase() == Phase::Idle);
         let stop_ok = match self.mode {
