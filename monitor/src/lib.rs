@@ -880,7 +880,10 @@ impl<S: Scalar> Monitor<S> {
                 prev == State::Operational || link_stop,
                 fail("SR-7", "Stopping entered from a state other than Operational")
             );
-            self.stopping_from_homing = prev != State::Operational;
+            // From Homing, or from a homing run that started and stopped
+            // for a lost link within one tick (its `HomingStarted` is in
+            // the same tick's events).
+            self.stopping_from_homing = prev != State::Operational || homing_started;
         }
         if st == State::Stopping || (prev == State::Stopping && matches!(st, State::SoftEstop | State::Homing)) {
             if prev != State::Stopping {

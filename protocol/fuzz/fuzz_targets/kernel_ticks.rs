@@ -136,7 +136,6 @@ fn run<S: Variant>(inp: &mut Input<'_>, fresh: bool) {
     let mut wit = Witness::new();
     let conv = |a: [f64; AXES]| a.map(|x| S::from_f32(x as f32));
     let mut ticks = 0u32;
-    let mut monitored = true;
 
     while !inp.is_empty() && ticks < MAX_TICKS {
         let op = inp.u8();
@@ -235,24 +234,13 @@ fn run<S: Variant>(inp: &mut Input<'_>, fresh: bool) {
             assert!(k.invariant(), "state invariant broken: {k:?}");
             let facts = wit.after(&plant, &out);
             let checked = mon.check(&sense, sent.as_ref(), &out, Some(&k.homing_phases()), Some(&facts));
-            if let (true, Err(e)) = (monitored, checked) {
-                // Known finding (reported with issue 14's fuzzing, input
-                // [55, 36, 36, 45, 61, 162]): <HOMEn> on a tick whose
-                // sensors report the link lost starts homing (J_n unhomed)
-                // and the link-loss stop follows in the same tick, so the
-                // kernel goes from Operational straight to Stopping with a
-                // joint unhomed, which the monitor's SR-19 does not expect
-                // (it allows it only for a stop that came from Homing).
-                let known = e.sr == "SR-19"
-                    && before == State::Operational
-                    && after == State::Stopping
-                    && sense.link_lost
-                    && matches!(sent, Some(Sent::Home | Sent::HomeJoint(_)));
-                assert!(known, "monitor: {e} (tick {ticks}, {before:?} -> {after:?})");
-                // The monitor's memory no longer matches the kernel: its
-                // verdicts stop here for this input (the other assertions
-                // go on).
-                monitored = false;
+            // (Issue 14's fuzzing found <HOMEn> in the tick the link is
+            // lost, input [55, 36, 36, 45, 61, 162]: the run starts and
+            // fails in one tick, Operational -> Stopping with the run's
+            // joints unhomed. The kernel is right; the monitor now reads the
+            // tick's HomingStarted event: kernel/tests/link_and_home.rs.)
+            if let Err(e) = checked {
+                panic!("monitor: {e} (tick {ticks}, {before:?} -> {after:?})");
             }
             plant.apply(&out.act.step_rate);
         }
