@@ -5,9 +5,10 @@
 //! `fixed` crate's saturation and rounding) whose values are z3 terms. The
 //! kernel's own generic functions (`Scalar::saturate`,
 //! `Scalar::clamp_between`, `control::control_law`, `AlphaBeta::step` /
-//! `coast`, `Interpolator::advance` with `interp::profile`) run on them
-//! unchanged; every `bool` they branch on is a path decision
-//! ([`ctx`]), and each property is checked by z3 on every feasible path:
+//! `coast`, `Interpolator::advance` with `interp::profile`, the soft-stop
+//! and homing ramps of `ramp`) run on them unchanged; every `bool` they
+//! branch on is a path decision ([`ctx`]), and each property is checked by
+//! z3 on every feasible path (or, explored blind, on every path):
 //! proved for all inputs, NaN and infinities included.
 //!
 //! The semantics of every symbolic operation are checked against `f32`

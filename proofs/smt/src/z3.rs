@@ -31,8 +31,9 @@ pub fn decide_timeout_ms() -> u32 {
 /// with [`crate::ctx::explore_blind`]), the same steps without z3's default
 /// preprocessing and solver choice: `(then simplify propagate-values fpa2bv
 /// simplify bit-blast sat)` (`fpa2bv` only with floating point). On the
-/// interpolator's property checks this answered in 0.3-2 s where the
-/// default needed 10-100 s (f32) and was 2-5x faster on `I8F24`. Both are
+/// interpolator's checks timed by hand this answered in 0.4-1.6 s where the
+/// default needed 4 s to over 100 s (f32), and was 2-5x faster on `I8F24`.
+/// Both are
 /// complete: `unknown` only on a timeout (the `sat` tactic also answers
 /// `unknown` on a goal it cannot bit-blast; never read as a result).
 /// `$SMT_TACTIC` overrides both with `(check-sat-using $SMT_TACTIC)`, for
