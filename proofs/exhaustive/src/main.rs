@@ -253,6 +253,34 @@ fn main() {
         ));
     }
 
+    // The tick's frame decode (issue 14): `decode_frame`, on 32-bit
+    // arithmetic, equals `decode_window` with the frame config (one u64
+    // division) for every u16 high time and every period from one below
+    // MIN_PERIOD_CYCLES to one above MAX_PERIOD_CYCLES; outside that range
+    // both return WindowTooShort / WindowTooLong at the same first
+    // comparison, before any arithmetic. Tagged HAL like the step
+    // conversion: the equality that lets the faster code replace the tested
+    // one (the decoder's other former 64-bit divisions are checked in
+    // hal-imxrt's tests against the kept reference code).
+    {
+        use hal_imxrt::pure::encoder::decode_window;
+        use hal_imxrt::pure::frame::{decode_frame, FRAME_DECODE, MAX_PERIOD_CYCLES, MIN_PERIOD_CYCLES};
+        let periods = (MIN_PERIOD_CYCLES - 1)..=(MAX_PERIOD_CYCLES + 1);
+        let cases = (periods.end() - periods.start() + 1) as u64 * (1 << 16);
+        let differs = |p: u32, h: u16| decode_frame(h, p) != decode_window(h as u32, p, &FRAME_DECODE);
+        results.push(sweep(
+            "HAL",
+            "exhaustive",
+            "frame decode: decode_frame == decode_window (u64), every u16 high x period MIN-1..=MAX+1".into(),
+            cases,
+            || {
+                periods.into_par_iter().find_any(|&p| (0..=u16::MAX).any(|h| differs(p, h))).and_then(|p| {
+                    (0..=u16::MAX).find(|&h| differs(p, h)).map(|h| format!("period {p} cycles, high {h} ticks"))
+                })
+            },
+        ));
+    }
+
     let failed: Vec<&Sweep> = results.iter().filter(|s| s.counterexample.is_some()).collect();
     let total: u64 = results.iter().map(|s| s.cases).sum();
     let secs: f64 = results.iter().map(|s| s.seconds).sum();
