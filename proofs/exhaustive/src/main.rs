@@ -3,8 +3,13 @@
 //! covers (VERIFICATION.md reserves "exhaustive" for whole domains):
 //!
 //! - **exhaustive**: every input of the function. Unwrapping (every pair
-//!   of 12-bit readings) and the HAL's step conversion (every `i32` rate,
-//!   for the board's step configuration) are swept whole.
+//!   of 12-bit readings), the HAL's step conversion (every `i32` rate, for
+//!   the board's step configuration) and the HAL's frame decode (every
+//!   `u16` high time x every period in the accepted range and one beyond
+//!   each end; outside it both implementations return at the same first
+//!   comparison) are swept whole. The two HAL sweeps compare issue 14's
+//!   division-free code with the code it replaced (tagged HAL, not a
+//!   SAFETY.md requirement).
 //! - **slice**: one argument of a multi-argument function enumerated
 //!   completely (all 2^32 `I8F24` or `f32` bit patterns, NaNs, infinities,
 //!   subnormals and both zeros included) with the others fixed, as each
