@@ -177,3 +177,30 @@ pub fn all() -> Vec<Proof> {
     }
     out
 }
+
+/// The SAFETY.md requirements a proof is evidence for (`SR-2/3` style), by
+/// its name: the evidence summary of the test command attaches each proof
+/// to these rows and checks that they claim it.
+pub fn requirements(name: &str) -> &'static str {
+    match name {
+        n if n.starts_with("saturate") || n.starts_with("control_law") => "SR-2/3",
+        n if n.starts_with("clamp_between") => "SR-2",
+        n if n.starts_with("observer") => "SR-3",
+        n if n.starts_with("soft-stop") => "SR-7",
+        n if n.starts_with("homing ramp") => "SR-14/25",
+        n if n.contains("never passes") => "SR-18",
+        n if n.contains("|vel'| <= vmax") => "SR-18/27",
+        n if n.starts_with("interpolator") => "SR-27",
+        _ => "SR-?",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_proof_traces_to_a_requirement() {
+        for p in super::all() {
+            assert_ne!(super::requirements(p.name), "SR-?", "{}", p.name);
+        }
+    }
+}

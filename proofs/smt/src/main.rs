@@ -72,6 +72,29 @@ fn main() {
         );
     }
     println!("\n{} of {} proved in {:.1} s", results.len() - failed, results.len(), t0.elapsed().as_secs_f64());
+    // The evidence record (`ci/test.sh`'s summary checks SAFETY.md's rows
+    // against it): requirement, kind, paths, verdict, what.
+    if let Ok(dir) = std::env::var("EVIDENCE_DIR") {
+        let mut tsv = String::new();
+        for (i, o) in &results {
+            let p = &proofs[*i];
+            tsv.push_str(&format!(
+                "{}\tSMT\t{}\t{}\t{} ({}, {}, {} paths, {:.1} s)\n",
+                smt::requirements(p.name),
+                o.paths,
+                if o.proved() { "proved" } else { "NOT proved" },
+                p.name,
+                p.variant,
+                p.joints_label(),
+                o.paths,
+                o.time.as_secs_f64()
+            ));
+        }
+        if let Err(e) = std::fs::write(std::path::Path::new(&dir).join("smt.tsv"), tsv) {
+            eprintln!("smt: cannot write the evidence file in {dir}: {e}");
+            std::process::exit(1);
+        }
+    }
     if failed > 0 {
         std::process::exit(1);
     }
