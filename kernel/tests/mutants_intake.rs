@@ -9,7 +9,7 @@
 mod common;
 
 use common::Rig;
-use kernel::config::{AXES, PAROL6};
+use kernel::config::{ms_to_ticks, AXES, PAROL6};
 use kernel::{Event, MotionKind, MotionTarget, Reject, Request, RequestKind, Scalar};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
@@ -22,6 +22,11 @@ macro_rules! both {
 }
 
 both!(target_limits_are_closed_intervals_up_to_the_widened_bound,);
+
+#[test]
+fn a_stream_sample_exactly_one_segment_away_is_accepted_fixed() {
+    a_stream_sample_exactly_one_segment_away_is_accepted::<kernel::Fx>();
+}
 
 fn homed<S: Scalar>() -> Rig<S> {
     let mut r = Rig::<S>::new(START);
@@ -65,5 +70,51 @@ fn target_limits_are_closed_intervals_up_to_the_widened_bound<S: Scalar>() {
                 out.events
             );
         }
+    }
+}
+
+/// PROTOCOL.md 6.3: a stream sample "farther from the current set-point
+/// (and from the previous target) than one segment can travel (the speed
+/// limit times the longest segment, plus the braking distance from the speed
+/// limit, plus `target_jump_tolerance`)" is refused: one exactly that far is
+/// accepted, and one a step farther is refused. Fixed-point only: its sums
+/// are exact, so the sample lies exactly that far from the set-point (in
+/// `f32`, `sp + d - sp` need not be `d`). Survivor: the jump test's `>` as
+/// `>=`.
+fn a_stream_sample_exactly_one_segment_away_is_accepted<S: Scalar>() {
+    let mut r = homed::<S>();
+    for j in [0usize, 3] {
+        let c = &PAROL6.joints[j];
+        let seg_s = ms_to_ticks(PAROL6.segment_max_ms, PAROL6.tick_hz) as f32 / PAROL6.tick_hz as f32;
+        let d = S::from_f32(
+            c.max_velocity * seg_s + c.setpoint_braking_distance(c.max_velocity) + PAROL6.target_jump_tolerance,
+        );
+        // At rest at a go-to's target: set-point and previous target agree.
+        let mut p = r.plant.q;
+        p[j] = 0.0;
+        r.goto(p);
+        r.run(2_000);
+        let sp = r.last.unwrap().status.setpoint;
+        assert_eq!(sp[j], S::from_f32(0.0), "J{} at rest at its target", j + 1);
+        let far = |x: S| {
+            let mut t = MotionTarget { position: sp, velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
+            t.position[j] = x;
+            Request::Motion(t)
+        };
+        let out = r.tick(Some(far(sp[j].plus(d).plus(S::from_f32(1e-4)))));
+        let reason = Reject::TargetJump { axis: j as u8 };
+        assert!(
+            out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason }),
+            "J{}: {:?}",
+            j + 1,
+            out.events
+        );
+        let out = r.tick(Some(far(sp[j].minus(d))));
+        assert!(out.events.is_empty(), "J{} exactly one segment away: {:?}", j + 1, out.events);
+        // A go-to back (it replaces the stream's target and disarms the
+        // command timeout); at rest again.
+        let back = MotionTarget { position: sp, velocity: [S::ZERO; AXES], kind: MotionKind::GoTo };
+        assert!(r.tick(Some(Request::Motion(back))).events.is_empty());
+        r.run(2_000);
     }
 }

@@ -1,0 +1,98 @@
+//! Tests written for the survivors of a cargo-mutants run on the kernel's
+//! logic files (`ci/mutants.sh`, `docs/MUTANTS.md`): each asserts the
+//! behaviour SAFETY.md or docs/PROTOCOL.md specify, for both numeric
+//! variants, every tick checked by the safety monitor (the common rig).
+//! This file: the set-point interpolator (`kernel/src/interp.rs`) as the
+//! kernel uses it.
+#![allow(clippy::needless_range_loop)] // six axes: indices read best
+
+mod common;
+
+use common::Rig;
+use kernel::config::AXES;
+use kernel::{Event, Scalar, State, StopCause};
+
+const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
+
+macro_rules! both {
+    ($($name:ident),* $(,)?) => {
+        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
+        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
+    };
+}
+
+both!(a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once, a_go_to_set_point_never_passes_its_target,);
+
+/// PROTOCOL.md 6.4: "A moving arm soft-stops at once"; `Kernel::moving`:
+/// "true while any set-point moves", and a set-point with a target it has
+/// not reached moves. A go-to accepted in the very tick the link is
+/// reported lost (the set-point not yet advanced, its velocity still zero)
+/// is motion under way: the stop starts in that tick. Survivor:
+/// `Interpolator::at_rest`'s `&&` as `||` (a set-point at zero velocity
+/// counted at rest wherever its target is).
+fn a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.boot_and_home();
+    r.run(200);
+    assert!(!r.k.moving());
+    let mut p = r.plant.q;
+    p[0] += 0.5;
+    r.plant.link_lost = true;
+    let out = r.goto(p);
+    assert!(out.events.iter().any(|e| *e == Event::SoftEstop { cause: StopCause::LinkLost }), "{:?}", out.events);
+    assert_eq!(out.status.state, State::Stopping);
+    r.run_until(500, |o| o.status.state != State::Stopping).expect("the stop ends");
+    assert_eq!(r.k.state(), State::SoftEstop);
+}
+
+/// PROTOCOL.md 6: "Every motion the kernel makes is acceleration- and
+/// speed-limited and stops **at** a validated target": a go-to's set-point
+/// approaches its target from one side and ends exactly on it, never a
+/// micro-radian past it (a target at a joint's limit would otherwise put
+/// the set-point outside the limit). Go-tos of several lengths, both ways,
+/// on joints with both acceleration limits, one to J3's upper limit, and
+/// a sweep of lengths from 10 urad to 1 rad. Survivor: the final step's
+/// clamp to the remaining distance (`c >= 0 && reachable` as `c < 0`).
+fn a_go_to_set_point_never_passes_its_target<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.boot_and_home();
+    // A few hand-picked go-tos, then a pseudo-random sweep of lengths
+    // from micro-radians to a radian on J1 and J4.
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut moves = vec![(0usize, 0.5), (0, 0.487), (3, -1.8), (3, -1.7979), (5, 1.3), (1, 0.05)];
+    let mut at = [0.5, -1.7979];
+    for k in 0..60 {
+        let (j, i) = if k % 2 == 0 { (0, 0) } else { (3, 1) };
+        let len = 10f64.powf(-5.0 + 5.0 * rnd());
+        let to = if at[i] + len < 1.0 && rnd() < 0.5 { at[i] + len } else { at[i] - len };
+        let to = to.clamp(-1.5, 1.0);
+        at[i] = to;
+        moves.push((j, to));
+    }
+    moves.push((2, 1.29));
+    for (j, to) in moves {
+        let mut p = r.plant.q;
+        p[j] = to;
+        let target = S::from_f32(to as f32);
+        let from = r.last.unwrap().status.setpoint[j];
+        let up = target > from;
+        let out = r.goto(p);
+        assert!(out.events.is_empty(), "J{} to {to}: {:?} {:?}", j + 1, out.events, out.status.fault);
+        for n in 0..3_000 {
+            let o = r.tick(None);
+            let sp = o.status.setpoint[j];
+            let past = if up { sp > target } else { sp < target };
+            assert!(!past, "J{} to {target:?}: set-point {sp:?} past it at tick {n}", j + 1);
+            if sp == target && o.act.velocity[j].abs() <= S::from_f32(0.01) && n > 50 {
+                break;
+            }
+        }
+        assert_eq!(r.last.unwrap().status.setpoint[j], target, "J{} ends on its target", j + 1);
+    }
+}
