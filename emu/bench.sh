@@ -107,7 +107,8 @@ if [ "${EMU_SKIP_TWIN:-0}" != 1 ]; then
     echo "==> whole tick interrupt on the register-level twin (twin/build-image.sh, twin run)"
     (cd "$ROOT" && twin/build-image.sh && cd twin && cargo build --release --locked -q &&
         ./target/release/twin run "$ROOT/sim/scenarios/configurator-jog-25hz.scn") >"$OUT/twin_run.txt" 2>&1 || true
-    TWIN_LINE="$(grep -E '^PIT handler' "$OUT/twin_run.txt" || echo "(twin run failed; see $OUT/twin_run.txt)")"
+    TWIN_LINE="$(sed -n '/^PIT handler (/,/^simulated/p' "$OUT/twin_run.txt" | grep -v '^simulated' || true)"
+    [ -n "$TWIN_LINE" ] || TWIN_LINE="(twin run failed; see $OUT/twin_run.txt)"
 fi
 
 echo "==> simulator speed (sim: the built-in scenarios, one after another)"
