@@ -9,8 +9,8 @@
 mod common;
 
 use common::Rig;
-use kernel::config::AXES;
-use kernel::{Event, Scalar, State, StopCause};
+use kernel::config::{AXES, PAROL6};
+use kernel::{Event, MotionKind, MotionTarget, Request, Scalar, State, StopCause};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 
@@ -21,7 +21,11 @@ macro_rules! both {
     };
 }
 
-both!(a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once, a_go_to_set_point_never_passes_its_target,);
+both!(
+    a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once,
+    a_go_to_set_point_never_passes_its_target,
+    a_go_to_onto_the_moving_set_point_brakes_within_the_acceleration_limit,
+);
 
 /// PROTOCOL.md 6.4: "A moving arm soft-stops at once"; `Kernel::moving`:
 /// "true while any set-point moves", and a set-point with a target it has
@@ -95,4 +99,46 @@ fn a_go_to_set_point_never_passes_its_target<S: Scalar>() {
         }
         assert_eq!(r.last.unwrap().status.setpoint[j], target, "J{} ends on its target", j + 1);
     }
+}
+
+/// A go-to whose target is exactly where the set-point is while it moves
+/// at speed (the configurator's "stop all" pressed mid-move, echoing the
+/// reported set-point): the set-point brakes at its acceleration limit,
+/// passes the target and comes back to it, never stopping dead in one tick
+/// (PROTOCOL.md 6: "Every motion the kernel makes is acceleration- and
+/// speed-limited"). The tick after the go-to starts at exactly zero
+/// distance from the target: the case where the direction test `r < 0`
+/// and its mutant `r <= 0` differ; the result is the same (the two frames
+/// mirror each other at zero distance: docs/MUTANTS.md, equivalent).
+fn a_go_to_onto_the_moving_set_point_brakes_within_the_acceleration_limit<S: Scalar>() {
+    let j = 0;
+    let mut r = Rig::<S>::new(START);
+    r.boot_and_home();
+    let mut p = r.plant.q;
+    p[j] = 0.0;
+    r.goto(p);
+    r.run(2_000);
+    p[j] = 1.0;
+    r.goto(p);
+    r.run(80);
+    let sp = r.last.unwrap().status.setpoint;
+    let mut prev_sp = sp[j].to_f32();
+    let v0 = r.k.last_output()[j].to_f32();
+    assert!(v0 > 1.0, "J1 at speed: {v0}");
+    let stop = MotionTarget { position: sp, velocity: [S::ZERO; AXES], kind: MotionKind::GoTo };
+    let dv = PAROL6.joints[j].setpoint_acceleration() / PAROL6.tick_hz as f32;
+    let mut out = r.tick(Some(Request::Motion(stop)));
+    assert!(out.events.is_empty(), "{:?}", out.events);
+    let mut v_prev_sp: Option<f32> = None;
+    for n in 0..1_000 {
+        let now = out.status.setpoint[j].to_f32();
+        let v = (now - prev_sp) * PAROL6.tick_hz as f32;
+        if let Some(pv) = v_prev_sp {
+            assert!((v - pv).abs() <= dv * 1.05 + 1e-3, "tick {n}: set-point speed {pv} -> {v} (limit {dv}/tick)");
+        }
+        v_prev_sp = Some(v);
+        prev_sp = now;
+        out = r.tick(None);
+    }
+    assert_eq!(out.status.setpoint[j], sp[j], "ends on the target");
 }
