@@ -6,18 +6,11 @@
 
 mod common;
 
-use common::Rig;
+use common::{both, Rig};
 use kernel::config::{ArmConfig, Validated, AXES, PAROL6};
 use kernel::{Event, FaultReason, HomingStatus, Reject, Request, RequestKind, Scalar, State, StopCause};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(
     a_stream_that_stops_abruptly_ends_at_its_last_target,

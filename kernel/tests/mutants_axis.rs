@@ -7,18 +7,11 @@
 
 mod common;
 
-use common::Rig;
+use common::{both, Rig};
 use kernel::config::{ms_to_ticks, ArmConfig, Validated, AXES, PAROL6, POSITION_ABS_MAX};
 use kernel::{FaultReason, Scalar, State, TickOutput};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(
     a_motor_reversed_mid_motion_faults_on_the_direction_rule,

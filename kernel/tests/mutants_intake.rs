@@ -8,18 +8,11 @@
 
 mod common;
 
-use common::Rig;
+use common::{both, Rig};
 use kernel::config::{ms_to_ticks, AXES, PAROL6};
 use kernel::{Event, MotionKind, MotionTarget, Reject, Request, RequestKind, Scalar};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(target_limits_are_closed_intervals_up_to_the_widened_bound,);
 

@@ -8,18 +8,11 @@
 
 mod common;
 
-use common::Rig;
+use common::{both, Rig};
 use kernel::config::{AXES, PAROL6};
 use kernel::{Event, MotionKind, MotionTarget, Request, Scalar, State, StopCause};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(
     a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once,

@@ -7,19 +7,12 @@
 
 mod common;
 
-use common::Rig;
+use common::{both, Rig};
 use kernel::config::{ArmConfig, Validated, AXES, PAROL6};
 use kernel::homing::Phase;
 use kernel::{Event, FaultReason, Reject, Request, RequestKind, Scalar, State, StopCause, TickOutput};
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(
     link_loss_during_the_stop_before_homing_drops_the_homing,

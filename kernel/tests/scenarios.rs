@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::both;
+
 use common::{target, EncoderFault, Rig};
 use kernel::config::{AXES, PAROL6};
 use kernel::homing::Phase;
@@ -11,13 +13,6 @@ use kernel::{Event, FaultReason, Fx, HomingStatus, Reject, Request, RequestKind,
 
 const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 const HOME_POSE: [f64; AXES] = [0.0; AXES];
-
-macro_rules! both {
-    ($($name:ident),* $(,)?) => {
-        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
-        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
-    };
-}
 
 both!(
     power_on_does_not_move,

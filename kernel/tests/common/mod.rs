@@ -131,3 +131,16 @@ impl<S: Scalar> Rig<S> {
         self.events.iter().filter(|e| matches!(e, Event::Rejected { .. })).count()
     }
 }
+
+/// One test per numeric variant: `both!(name, ...)` makes
+/// `f32_variant::name` and `fixed_variant::name`, each calling `name::<S>()`
+/// of the calling module.
+#[allow(unused_macros)]
+macro_rules! both {
+    ($($name:ident),* $(,)?) => {
+        mod f32_variant { $( #[test] fn $name() { super::$name::<f32>(); } )* }
+        mod fixed_variant { $( #[test] fn $name() { super::$name::<kernel::Fx>(); } )* }
+    };
+}
+#[allow(unused_imports)]
+pub(crate) use both;
