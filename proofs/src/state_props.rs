@@ -74,11 +74,12 @@ fn any_between_mostly<S: Sym>(lo: S, hi: S, typical: (S, S), typ: bool) -> S {
 }
 
 /// The soft-stop envelope at ramp tick `k` from `v0`, as the kernel's ramp
-/// computes it (`(N - k) / N` from the reciprocal of N).
+/// computes it (`ramp::stop_scale` of the reciprocal of N, as
+/// `Params::new` forms it).
 fn envelope<S: Scalar>(v0: S, k: u32) -> S {
     let n = stop_ticks();
     let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
-    let scale = S::from_f32(1.0 / n as f32).times_int(left).min(S::ONE).max(S::ZERO);
+    let scale = kernel::ramp::stop_scale(S::from_f32(1.0 / n as f32), left);
     v0.times(scale)
 }
 

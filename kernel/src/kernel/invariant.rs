@@ -15,14 +15,15 @@ use super::params::AxisParams;
 use super::supervisor::Mode;
 use super::{Kernel, ALL};
 use crate::homing::Phase;
+use crate::ramp;
 use crate::scalar::Scalar;
 
 impl<S: Scalar> Kernel<S> {
-    /// The soft-stop envelope's scale at ramp tick `k`: `(N - k) / N`,
-    /// computed as the ramp computes it.
+    /// The soft-stop envelope's scale at ramp tick `k`: `(N - k) / N`
+    /// ([`ramp::stop_scale`]); the ramp and the invariant both use it.
     pub(super) fn stop_scale(&self, k: u32) -> S {
         let left = i32::try_from(self.p.stop_ticks.saturating_sub(k)).unwrap_or(0);
-        self.p.inv_stop.times_int(left).min(S::ONE).max(S::ZERO)
+        ramp::stop_scale(self.p.inv_stop, left)
     }
 
     /// The state invariant. Every state reachable through [`Kernel::new`]

@@ -290,9 +290,7 @@ impl<S: Scalar> Kernel<S> {
     /// targets), so a stop that starts while a set-point is still braking
     /// ends where the set-point ends, not a ramp's length beyond it.
     fn ramp(&mut self, k: u32, v0: &[S; AXES], track: bool, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
-        let n = self.p.stop_ticks;
-        let left = i32::try_from(n.saturating_sub(k)).unwrap_or(0);
-        let scale = ramp::stop_scale(self.p.inv_stop, left);
+        let scale = self.stop_scale(k);
         let kp = &self.p;
         let axes =
             self.axes.iter_mut().zip(kp.axes.iter()).zip(out.iter_mut()).zip(v0.iter()).zip(self.last_out.iter());
@@ -300,7 +298,7 @@ impl<S: Scalar> Kernel<S> {
             // Following, the output may fall no faster than the ramp itself
             // (vmax / N per tick); the arithmetic is `ramp::stop_output`.
             let follow = if track { Some((ax.brake(i as u8, p, kp, fault), p.stop_step)) } else { None };
-            *o = ramp::stop_output(*v, scale, *prev, follow, k >= n);
+            *o = ramp::stop_output(*v, scale, *prev, follow, k >= self.p.stop_ticks);
         }
     }
 
