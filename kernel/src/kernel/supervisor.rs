@@ -275,6 +275,11 @@ impl<S: Scalar> Kernel<S> {
         // set-point in Operational, the integral of the commands otherwise).
         match self.mode {
             Mode::Operational => self.following(false, fault),
+            // Not during the settle wait: the paths were set to estimates
+            // that may still be catching up with the arm (the observer after
+            // a push or a stop); the wait ends by resyncing them to the
+            // settled estimates (`mutants_supervisor` shows a push released
+            // as HOME arrives moving the estimate past the bound).
             Mode::Homing if self.home_wait > 0 => {}
             Mode::Homing | Mode::Stopping { .. } => self.following(true, fault),
             _ => {}
