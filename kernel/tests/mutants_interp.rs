@@ -18,6 +18,7 @@ both!(
     a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once,
     a_go_to_set_point_never_passes_its_target,
     a_go_to_onto_the_moving_set_point_brakes_within_the_acceleration_limit,
+    a_set_point_a_rounding_short_of_its_target_lands_on_it_not_past,
 );
 
 /// PROTOCOL.md 6.4: "A moving arm soft-stops at once"; `Kernel::moving`:
@@ -134,4 +135,64 @@ fn a_go_to_onto_the_moving_set_point_brakes_within_the_acceleration_limit<S: Sca
         out = r.tick(None);
     }
     assert_eq!(out.status.setpoint[j], sp[j], "ends on the target");
+}
+
+/// SR-18: "the set-point never passes a target it is moving toward". The
+/// braking test allows `eps` (4 urad) for rounding, so a last step can be
+/// up to `eps` longer than the distance left; the step is then clamped to
+/// the target. That state is narrow (a set-point 10 urad short, arriving
+/// 2-4 mrad/s faster than it could land: too fast to land in one tick,
+/// slow enough to stop at once) and no go-to of the kernel tests reached
+/// it, so it is built directly (`Interpolator::from_parts`, the public
+/// constructor of any state, as the proofs use) on J1's and J3's
+/// profiles, both directions: the set-point stops exactly on the target,
+/// keeps a velocity within the acceleration limit, and lands the next
+/// tick. Survivor: the clamp's `c >= 0` as `c < 0` (no clamp).
+fn a_set_point_a_rounding_short_of_its_target_lands_on_it_not_past<S: Scalar>() {
+    use kernel::interp::{profile, Interpolator};
+    let mut clamped = 0;
+    for j in [0usize, 2] {
+        let jc = &PAROL6.joints[j];
+        let k = profile::<S>(jc.max_velocity, jc.max_acceleration, PAROL6.tick_hz);
+        let dv = jc.max_acceleration / PAROL6.tick_hz as f32;
+        for sign in [1.0f32, -1.0] {
+            for dist_urad in [6.0f32, 10.0, 20.0, 50.0] {
+                let dist = dist_urad * 1e-6;
+                let land = dist * PAROL6.tick_hz as f32;
+                // Faster than landing allows (v - dv above land + slack),
+                // within the rounding allowance of the distance.
+                for over in [0.3e-3f32, 1.0e-3, 2.0e-3, 3.0e-3, 3.7e-3] {
+                    // Slowest speed it can take, v - dv, at most dv: it can
+                    // still stop the tick after (faster, the target is not
+                    // reachable: it brakes through it and comes back).
+                    if land + over > dv {
+                        continue;
+                    }
+                    let v = dv + land + over;
+                    let start = 0.25 * sign;
+                    let target = start + sign * dist;
+                    let mut it = Interpolator::from_parts(
+                        S::from_f32(start),
+                        S::from_f32(target),
+                        S::from_f32(sign * v),
+                        S::from_f32(jc.max_velocity),
+                    );
+                    let t = it.target();
+                    let (sp, vel) = it.advance(&k);
+                    let case = format!("J{} sign {sign} dist {dist_urad} urad over {over}", j + 1);
+                    let past = if sign > 0.0 { sp > t } else { sp < t };
+                    assert!(!past, "{case}: set-point {:?} past its target {:?}", sp, t);
+                    assert!((vel.to_f32() - sign * v).abs() <= dv * 1.01 + 1e-4, "{case}: velocity step");
+                    if sp == t && vel != S::ZERO {
+                        clamped += 1;
+                    }
+                    let (sp2, vel2) = it.advance(&k);
+                    assert_eq!(sp2, t, "{case}: not at the target the next tick");
+                    assert_eq!(vel2, S::ZERO, "{case}: still moving at the target");
+                }
+            }
+        }
+    }
+    // The clamp itself was exercised (on the target with speed left).
+    assert!(clamped >= 8, "only {clamped} states stopped on the target by the clamp");
 }
