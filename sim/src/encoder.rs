@@ -100,12 +100,53 @@ impl DecodeStats {
     }
 }
 
-/// Timer edges (every 32 CPU cycles) in `(a, b]`.
+/// `x.ceil()` as an integer, for `|x| < 2^62` (every time and count here),
+/// without the libm call `f64::ceil` is on a baseline x86-64 build: the
+/// conversion truncates toward zero, and one comparison corrects it.
+#[inline(always)]
+fn ceil_i64(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) < x {
+        i + 1
+    } else {
+        i
+    }
+}
+
+/// `x.floor()` as an integer, for `|x| < 2^62`.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let i = x as i64;
+    if (i as f64) > x {
+        i - 1
+    } else {
+        i
+    }
+}
+
+/// `x.round()` (half away from zero) as an integer, for `|x| < 2^52`
+/// (`x - trunc(x)` is then exact).
+#[inline(always)]
+fn round_i64(x: f64) -> i64 {
+    let i = x as i64;
+    let frac = x - i as f64;
+    if frac >= 0.5 {
+        i + 1
+    } else if frac <= -0.5 {
+        i - 1
+    } else {
+        i
+    }
+}
+
+/// Timer edges (every 32 CPU cycles) in `(a, b]`: `ceil(b / 32) - ceil(a / 32)`
+/// (the divisions by a power of two are exact).
+#[inline(always)]
 fn edges(a: f64, b: f64) -> u64 {
     if b <= a {
         0
     } else {
-        ((b / CYCLES_PER_QT_TICK).ceil() - (a / CYCLES_PER_QT_TICK).ceil()).max(0.0) as u64
+        (ceil_i64(b / CYCLES_PER_QT_TICK) - ceil_i64(a / CYCLES_PER_QT_TICK)).max(0) as u64
     }
 }
 
@@ -151,7 +192,15 @@ impl Encoder {
         match self.line {
             Line::StuckLow => 0,
             Line::StuckHigh => edges(a, b),
-            Line::Ok => self.frames.iter().map(|f| edges(f.start.max(a), f.high_end.min(b))).sum(),
+            // Frames are disjoint and ordered (HIGH ends before the next
+            // frame starts): only those whose HIGH time reaches past `a`
+            // can count (the others give empty intervals).
+            Line::Ok => self
+                .frames
+                .iter()
+                .filter(|f| f.high_end > a && f.start < b)
+                .map(|f| edges(f.start.max(a), f.high_end.min(b)))
+                .sum(),
         }
     }
 
@@ -180,9 +229,9 @@ impl Encoder {
         let horizon = t_now + SNAPSHOT_CYCLES;
         while self.next_start < horizon {
             let start = self.next_start;
-            let mut c = angle_at(start).floor() as i64;
+            let mut c = floor_i64(angle_at(start));
             if self.noise > 0.0 {
-                c += (rng.normal() * self.noise).round() as i64;
+                c += round_i64(rng.normal() * self.noise);
             }
             if let Some((off, n)) = self.glitch {
                 c += i64::from(off);
@@ -199,6 +248,9 @@ impl Encoder {
         while self.frames.len() > 4 {
             self.frames.pop_front();
         }
+        // (Frames whose HIGH time ended by the previous read are dropped at
+        // its end, below: they count nothing, raise no edge and are no
+        // longer the pin's level.)
         // 2. Rising edges in (t_prev, t_now]: CAPT := counter at the edge.
         if self.line == Line::Ok {
             for f in self.frames.iter().filter(|f| f.start > t_prev && f.start <= t_now) {
@@ -221,10 +273,16 @@ impl Encoder {
             input_high,
             capt: self.capt,
             cntr: self.gated as u16,
-            cycles: (t_now.round() as u64) as u32,
+            cycles: round_i64(t_now) as u64 as u32,
             consistent: !edge_during_read,
         };
         self.ief = false;
+        // Every later read is after `t_now`: a frame whose HIGH time ended
+        // by now contributes nothing to it (no count, no edge, not the
+        // pin's level). Frames are ordered, so those are at the front.
+        while self.frames.front().is_some_and(|f| f.high_end <= t_now) {
+            self.frames.pop_front();
+        }
         s
     }
 }

@@ -32,6 +32,46 @@ fn state_color(s: State) -> &'static str {
     }
 }
 
+/// Appends `v` formatted as `format!("{v:.1}")` does, byte for byte, without
+/// `core::fmt`'s exact float formatting (most of the plot's cost): the value
+/// times ten is rounded to the nearest integer where that is unambiguous
+/// (`|v| < 1e7`, so the product is within 2e-9 of the exact one, and its
+/// fraction is not within 1e-4 of one half); anything else (a tie or near
+/// one, non-finite, large) goes to `core::fmt`.
+pub fn push_f1(s: &mut String, v: f64) {
+    let a = v.abs();
+    if a < 1e7 {
+        let scaled = a * 10.0;
+        let i = scaled as u64;
+        let frac = scaled - i as f64; // exact: an integer part below 2^53
+        if (frac - 0.5).abs() > 1e-4 {
+            let n = if frac > 0.5 { i + 1 } else { i };
+            if v.is_sign_negative() {
+                s.push('-');
+            }
+            push_u64(s, n / 10);
+            s.push('.');
+            s.push(char::from(b'0' + (n % 10) as u8));
+            return;
+        }
+    }
+    let _ = write!(s, "{v:.1}");
+}
+
+fn push_u64(s: &mut String, mut n: u64) {
+    let mut buf = [0u8; 20];
+    let mut k = buf.len();
+    loop {
+        k -= 1;
+        buf[k] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    s.extend(buf[k..].iter().map(|b| char::from(*b)));
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
@@ -119,6 +159,16 @@ pub fn plot(r: &Report) -> String {
         y = y0 + STRIP_H + 11.0
     );
     let stride = tr.len().div_ceil(MAX_POINTS).max(1);
+    // The plotted samples' x coordinates, formatted once for all panels.
+    let xs: Vec<String> = tr
+        .iter()
+        .step_by(stride)
+        .map(|smp| {
+            let mut t = String::with_capacity(8);
+            push_f1(&mut t, x(smp.t));
+            t
+        })
+        .collect();
     for j in 0..AXES {
         let top = y0 + STRIP_H + 30.0 + j as f64 * (PANEL_H + GAP);
         let (mut lo, mut hi) = (f64::MAX, f64::MIN);
@@ -153,14 +203,17 @@ pub fn plot(r: &Report) -> String {
         for (sel, color, width, dash) in
             [(2usize, "#2ca02c", 1.0, " stroke-dasharray=\"4 3\""), (0, "#1f77b4", 2.0, ""), (1, "#d62728", 1.2, "")]
         {
-            let mut pts = String::new();
-            for smp in tr.iter().step_by(stride) {
+            let mut pts = String::with_capacity(xs.len() * 14);
+            for (smp, xx) in tr.iter().step_by(stride).zip(xs.iter()) {
                 let yy = match sel {
                     0 => y(f64::from(smp.q[j])),
                     1 => y(f64::from(smp.sp[j])),
                     _ => yv(f64::from(smp.v[j])),
                 };
-                let _ = write!(pts, "{:.1},{:.1} ", x(smp.t), yy);
+                pts.push_str(xx);
+                pts.push(',');
+                push_f1(&mut pts, yy);
+                pts.push(' ');
             }
             let _ =
                 writeln!(s, r#"<polyline fill="none" stroke="{color}" stroke-width="{width}"{dash} points="{pts}"/>"#);
@@ -182,4 +235,69 @@ pub fn plot(r: &Report) -> String {
     }
     s.push_str("</svg>\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::push_f1;
+    use crate::rng::Rng;
+
+    fn same(v: f64) {
+        let mut s = String::new();
+        push_f1(&mut s, v);
+        assert_eq!(s, format!("{v:.1}"), "{v:e} ({:#x})", v.to_bits());
+    }
+
+    #[test]
+    fn push_f1_formats_as_core_fmt() {
+        for v in [
+            0.0,
+            -0.0,
+            0.05,
+            -0.05,
+            0.25,
+            -0.25,
+            0.35,
+            0.45,
+            0.95,
+            -0.95,
+            0.04,
+            -0.04,
+            1e-300,
+            -1e-300,
+            9.95,
+            99.95,
+            1099.95,
+            123456.75,
+            9_999_999.95,
+            1e7,
+            -1e7,
+            1e7 + 0.05,
+            1e300,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.049999999,
+            0.050000001,
+        ] {
+            same(v);
+        }
+        let mut r = Rng::new(7);
+        for k in 0..400_000 {
+            let u = r.uniform();
+            let v = match k % 4 {
+                0 => (u - 0.5) * 3000.0,
+                // Exact ties and their neighbours at one decimal.
+                1 => {
+                    let t = ((u * 20000.0) as i64 - 10000) as f64 / 10.0 + 0.05;
+                    f64::from_bits(t.to_bits().wrapping_add((k as u64 / 4) % 5).wrapping_sub(2))
+                }
+                2 => (u - 0.5) * 2e7,
+                _ => f64::from_bits(r.next_u64()),
+            };
+            same(v);
+        }
+    }
 }
