@@ -220,3 +220,199 @@ mod spec {
         }
     }
 }
+
+/// Each clause of the invariant refuses the states it names and admits its
+/// boundary (every bound is inclusive or exclusive as documented), for both
+/// variants. The scenario tests only see reachable states, where every
+/// clause holds; these are the states where one does not.
+#[cfg(test)]
+mod tests {
+    use super::super::supervisor::Mode;
+    use super::super::{Kernel, ALL};
+    use crate::config::{AXES, PAROL6_VALIDATED};
+    use crate::homing::Phase;
+    use crate::scalar::{Fx, Scalar};
+    use crate::types::{EncoderSample, Fault, FaultReason, Sense};
+
+    /// A kernel past boot, every axis read (Unhomed, at rest).
+    fn booted<S: Scalar>() -> Kernel<S> {
+        let (mut k, _auth) = Kernel::<S>::new(&PAROL6_VALIDATED);
+        let sense =
+            Sense { encoders: [EncoderSample::Count(1000); AXES], limits: 0, hardware_fault: None, link_lost: false };
+        for _ in 0..5 {
+            k.tick(&sense, None);
+        }
+        assert_eq!(k.mode, Mode::Unhomed);
+        assert!(k.axes.iter().all(|a| a.ready && !a.needs_reinit));
+        assert!(k.invariant());
+        k
+    }
+
+    /// Operational, homed, at rest.
+    fn operational<S: Scalar>() -> Kernel<S> {
+        let mut k = booted::<S>();
+        k.mode = Mode::Operational;
+        k.homed = ALL;
+        assert!(k.invariant());
+        k
+    }
+
+    fn vmax<S: Scalar>(k: &Kernel<S>, i: usize) -> S {
+        k.p.axes.get(i).map_or(S::ZERO, |p| p.vmax)
+    }
+
+    /// `f` applied to a fresh kernel from `base` gives `want`.
+    fn case<S: Scalar>(base: fn() -> Kernel<S>, want: bool, what: &str, f: impl FnOnce(&mut Kernel<S>)) {
+        let mut k = base();
+        f(&mut k);
+        assert_eq!(k.invariant(), want, "{}: {what}", core::any::type_name::<S>());
+    }
+
+    fn clauses<S: Scalar>() {
+        let half = S::from_f32(0.5);
+        // 1. a fault latched exactly in Fault.
+        case(booted::<S>, false, "fault outside Fault", |k| {
+            k.fault = Some(Fault { reason: FaultReason::Runaway { axis: 0 }, tick: 0 })
+        });
+        case(booted::<S>, false, "Fault without a fault", |k| k.mode = Mode::Fault);
+        case(booted::<S>, true, "Fault with its fault", |k| {
+            k.mode = Mode::Fault;
+            k.fault = Some(Fault { reason: FaultReason::Runaway { axis: 0 }, tick: 0 });
+        });
+        // 2. outputs within vmax, zero at rest.
+        case(operational::<S>, true, "output exactly vmax", |k| k.last_out[1] = vmax(k, 1));
+        case(operational::<S>, true, "output exactly -vmax", |k| k.last_out[1] = vmax(k, 1).neg());
+        case(operational::<S>, false, "output above vmax", |k| k.last_out[1] = vmax(k, 1).plus(half));
+        case(operational::<S>, false, "output below -vmax", |k| k.last_out[5] = vmax(k, 5).plus(half).neg());
+        for mode in [Mode::Boot, Mode::Unhomed, Mode::SoftEstop] {
+            case(booted::<S>, false, "output at rest", |k| {
+                k.mode = mode;
+                k.last_out[2] = half;
+            });
+        }
+        case(booted::<S>, false, "output in Fault", |k| {
+            k.mode = Mode::Fault;
+            k.fault = Some(Fault { reason: FaultReason::Runaway { axis: 0 }, tick: 0 });
+            k.last_out[2] = half;
+        });
+        // 3. Operational only homed; no homing phase outside Homing.
+        case(operational::<S>, false, "Operational with a joint unhomed", |k| k.homed = ALL & !(1 << 3));
+        case(booted::<S>, false, "a homing phase in Unhomed", |k| k.axes[4].homing.reset(true));
+        case(booted::<S>, true, "a homing phase in Homing", |k| {
+            k.mode = Mode::Homing;
+            k.axes[4].homing.reset(true);
+        });
+        assert_ne!(booted::<S>().axes[4].homing.phase(), Phase::Waiting);
+        // 4. the soft-stop envelope.
+        let stopping = |k: &mut Kernel<S>, step: u32, v0: S, out: S| {
+            let mut v = [S::ZERO; AXES];
+            v[0] = v0;
+            k.mode = Mode::Stopping { k: step, v0: v, then_home: 0, track: false };
+            k.last_out[0] = out;
+        };
+        let n = booted::<S>().p.stop_ticks;
+        let one = S::ONE;
+        case(operational::<S>, true, "stop output on the envelope", |k| {
+            let env = one.times(k.stop_scale(3));
+            stopping(k, 3, one, env)
+        });
+        case(operational::<S>, true, "stop output on the envelope, negative", |k| {
+            let env = one.neg().times(k.stop_scale(3));
+            stopping(k, 3, one.neg(), env)
+        });
+        case(operational::<S>, false, "stop output just past the envelope", |k| {
+            let env = one.times(k.stop_scale(3)).plus(S::from_f32(1e-4));
+            stopping(k, 3, one, env)
+        });
+        case(operational::<S>, true, "stop at k = N, zero", |k| stopping(k, n, one, S::ZERO));
+        case(operational::<S>, false, "stop past its end", |k| stopping(k, n + 1, one, S::ZERO));
+        case(operational::<S>, false, "stop at k = N, not zero", |k| stopping(k, n, one, S::from_f32(0.01)));
+        case(operational::<S>, false, "stop output above the envelope", |k| stopping(k, n / 2, one, S::from_f32(0.6)));
+        case(operational::<S>, true, "stop output inside the envelope", |k| stopping(k, n / 2, one, S::from_f32(0.4)));
+        case(operational::<S>, false, "stop output reversed", |k| stopping(k, 0, one, S::from_f32(-0.1)));
+        case(operational::<S>, false, "stop from above vmax", |k| {
+            let v = vmax(k, 0).plus(half);
+            stopping(k, 0, v, S::ZERO)
+        });
+        case(operational::<S>, false, "stop from below -vmax", |k| {
+            let v = vmax(k, 0).plus(half).neg();
+            stopping(k, 0, v, S::ZERO)
+        });
+        // 5. plausible estimates and counters below their fault thresholds.
+        let pos_abs = booted::<S>().p.pos_abs;
+        let vel_abs = booted::<S>().p.vel_abs;
+        case(booted::<S>, false, "estimate at the position bound", |k| k.axes[0].obs.x = pos_abs);
+        case(booted::<S>, false, "estimate at minus the position bound", |k| k.axes[0].obs.x = pos_abs.neg());
+        case(booted::<S>, false, "estimated speed at the bound", |k| k.axes[0].obs.v = vel_abs);
+        case(booted::<S>, false, "estimated speed at minus the bound", |k| k.axes[0].obs.v = vel_abs.neg());
+        case(booted::<S>, true, "implausible in Fault", |k| {
+            k.mode = Mode::Fault;
+            k.fault = Some(Fault { reason: FaultReason::Runaway { axis: 0 }, tick: 0 });
+            k.axes[0].obs.x = pos_abs;
+        });
+        case(booted::<S>, true, "implausible before the first reading", |k| {
+            k.axes[0].ready = false;
+            k.axes[0].obs.x = pos_abs;
+        });
+        case(booted::<S>, true, "implausible awaiting re-initialisation", |k| {
+            k.axes[0].needs_reinit = true;
+            k.axes[0].obs.v = vel_abs;
+        });
+        let (il, fe) = (booted::<S>().p.invalid_limit, booted::<S>().p.fe_ticks);
+        case(booted::<S>, true, "invalid count at its limit", |k| k.axes[3].invalid = il);
+        case(booted::<S>, false, "invalid count past its limit", |k| k.axes[3].invalid = il + 1);
+        case(booted::<S>, true, "following-error count at its limit", |k| k.axes[3].fe_count = fe);
+        case(booted::<S>, false, "following-error count past its limit", |k| k.axes[3].fe_count = fe + 1);
+        // 6. set-points: velocity within vmax.
+        case(booted::<S>, true, "set-point velocity exactly vmax", |k| {
+            let v = vmax(k, 2);
+            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+        });
+        case(booted::<S>, false, "set-point velocity above vmax", |k| {
+            let v = vmax(k, 2).plus(half);
+            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+        });
+        case(booted::<S>, false, "set-point velocity below -vmax", |k| {
+            let v = vmax(k, 2).plus(half).neg();
+            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+        });
+        // 7. stream timing.
+        let (lo, hi) = (booted::<S>().p.seg_min, booted::<S>().p.seg_max);
+        case(booted::<S>, true, "intervals at the segment bounds", |k| k.intervals = [lo, hi, lo, hi]);
+        case(booted::<S>, false, "an interval below the range", |k| k.intervals = [lo, lo - 1, lo, lo]);
+        case(booted::<S>, false, "an interval above the range", |k| k.intervals = [hi, hi, hi, hi + 1]);
+        case(booted::<S>, false, "a partly filled history", |k| k.intervals = [0, 0, 0, lo]);
+        case(booted::<S>, true, "since the last target: the longest segment", |k| k.since_target = Some(hi));
+        case(booted::<S>, false, "since the last target: longer", |k| k.since_target = Some(hi + 1));
+    }
+
+    /// Non-finite values (f32 only: I8F24 has none).
+    #[test]
+    fn non_finite_values_are_refused() {
+        let nan = f32::NAN;
+        case(operational::<f32>, false, "NaN output", |k| k.last_out[0] = nan);
+        case(operational::<f32>, false, "NaN stop origin", |k| {
+            k.mode = Mode::Stopping { k: 0, v0: [nan; AXES], then_home: 0, track: false }
+        });
+        case(booted::<f32>, false, "NaN estimate", |k| k.axes[1].obs.x = nan);
+        case(booted::<f32>, false, "NaN estimated speed", |k| k.axes[1].obs.v = nan);
+        for (sp, t, v) in [(nan, 0.0, 0.0), (0.0, nan, 0.0), (0.0, 0.0, nan), (f32::INFINITY, 0.0, 0.0)] {
+            case(booted::<f32>, false, "non-finite set-point", |k| {
+                k.axes[1].interp = crate::interp::Interpolator::from_parts(sp, t, v, 0.0)
+            });
+        }
+        case(booted::<f32>, false, "infinite target", |k| {
+            k.axes[1].interp = crate::interp::Interpolator::from_parts(0.0, f32::NEG_INFINITY, 0.0, 0.0)
+        });
+    }
+
+    #[test]
+    fn each_clause_refuses_its_states_f32() {
+        clauses::<f32>();
+    }
+
+    #[test]
+    fn each_clause_refuses_its_states_fx() {
+        clauses::<Fx>();
+    }
+}
