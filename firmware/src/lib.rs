@@ -73,13 +73,28 @@ pub fn sense(
 /// as [`HardwareFault::Driver`] on the next tick.
 pub fn act(rates: &[i32; AXES], plan: &StepPlan) -> ([StepCommand; AXES], Option<u8>) {
     let mut out = [StepCommand::Stop; AXES];
+    let refused = act_into(rates, plan, &mut out);
+    (out, refused)
+}
+
+/// [`act`] into caller-owned storage (the tick's record): `out` holds all
+/// six commands, or six `Stop`s and the first axis that could not be
+/// programmed is returned.
+pub fn act_into(rates: &[i32; AXES], plan: &StepPlan, out: &mut [StepCommand; AXES]) -> Option<u8> {
+    let mut refused = None;
     for (i, (o, &r)) in out.iter_mut().zip(rates.iter()).enumerate() {
         match plan.command(r.saturating_mul(1000)) {
             Ok(c) => *o = c,
-            Err(_) => return ([StepCommand::Stop; AXES], Some(i as u8)),
+            Err(_) => {
+                refused = Some(i as u8);
+                break;
+            }
         }
     }
-    (out, None)
+    if refused.is_some() {
+        *out = [StepCommand::Stop; AXES];
+    }
+    refused
 }
 
 /// CPU cycles (600 MHz) -> whole microseconds.

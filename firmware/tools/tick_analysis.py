@@ -45,7 +45,11 @@ def disasm(objdump, elf):
             continue
         op, rest = parts[0], (parts[1] if len(parts) > 1 else "")
         base = op.split(".")[0]
-        t = re.search(r"<([^>]+)>", rest)
+        # The target label may itself contain angle brackets (v0-mangled
+        # generics, `<firmware::root::Controller>::step::<parol6::Teensy>`):
+        # take everything from the first `<` to the last `>` before any
+        # trailing `@ imm` comment.
+        t = re.search(r"<(.+)>(?:\s*@.*)?$", rest)
         if base in ("bl", "blx", "b", "bne", "beq", "bhi", "bls", "bge", "blt", "bgt", "ble",
                     "bcs", "bcc", "bhs", "blo", "bmi", "bpl", "bvs", "bvc", "cbz", "cbnz"):
             if t:
