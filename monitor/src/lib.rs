@@ -475,6 +475,9 @@ pub struct Monitor<S> {
     /// SR-28: consecutive Operational ticks a broken joint's set-point has
     /// been beyond the following-error bound from its true angle.
     fe_over: [u32; AXES],
+    /// SR-2: each joint's largest step rate (its max velocity in steps,
+    /// 0.1 % and one step of slack), computed once from `cfg`.
+    rate_max: [f64; AXES],
     /// Coverage counters.
     pub stats: Stats,
 }
@@ -514,6 +517,7 @@ impl<S: Scalar> Monitor<S> {
             home_phase: [Phase::Idle; AXES],
             home_origin: [0.0; AXES],
             fe_over: [0; AXES],
+            rate_max: cfg.joints.map(|j| f64::from(j.max_velocity) * j.steps_per_rad() * 1.001 + 1.0),
             stats: Stats::default(),
         }
     }
@@ -1464,40 +1468,36 @@ impl<S: Scalar> Monitor<S> {
                 }
             }
             if let Some((r, dir)) = *reach {
-                ensure_ok(
-                    (fa - r) * dir <= tol,
+                ensure_ok((fa - r) * dir <= tol, || {
                     fail("SR-27", "set-point overshot a target inside its braking distance by more than it")
                         .on(i)
                         .got(fa)
-                        .bound(r),
-                )?;
+                        .bound(r)
+                })?;
             }
             if let Some(pv) = pv {
                 let bound = dv + (dv / 256.0).max(1e-4) + 4.0 * ulp * hz;
                 let change = (*v - pv).abs();
-                ensure_ok(
-                    change <= bound,
+                ensure_ok(change <= bound, || {
                     fail("SR-27", "set-point velocity changed more than max_acceleration/tick_hz")
                         .on(i)
                         .got(change)
-                        .bound(bound),
-                )?;
+                        .bound(bound)
+                })?;
             }
             let lo = f64::from(j.limit_min).min(*anchor) - tol;
             let hi = f64::from(j.limit_max).max(*anchor) + tol;
-            ensure_ok(
-                fa >= lo && fa <= hi,
-                fail("SR-27", "set-point outside the joint limits").on(i).got(fa).bound(if fa < lo { lo } else { hi }),
-            )?;
+            ensure_ok(fa >= lo && fa <= hi, || {
+                fail("SR-27", "set-point outside the joint limits").on(i).got(fa).bound(if fa < lo { lo } else { hi })
+            })?;
             if let Some(t) = t_new {
                 let ft = f(t);
                 let (pa, pb) = (fb - ft, fa - ft);
                 let crossed = (pa > 0.0 && pb < -tol) || (pa < 0.0 && pb > tol);
                 let left = b == t && a != t && !changed;
-                ensure_ok(
-                    !(crossed || left) || self.infeasible & bit(i) != 0,
-                    fail("SR-27", "set-point passed the target it approached").on(i).got(fa).bound(ft),
-                )?;
+                ensure_ok(!(crossed || left) || self.infeasible & bit(i) != 0, || {
+                    fail("SR-27", "set-point passed the target it approached").on(i).got(fa).bound(ft)
+                })?;
                 if a == t && f64::from(*rest) > f64::from(j.max_velocity) / dv + 2.0 {
                     self.infeasible &= !bit(i);
                     *reach = None;
@@ -1515,8 +1515,9 @@ impl<S: Scalar> Monitor<S> {
     /// velocity in steps, with the velocity's sign.
     fn check_outputs(&self, out: &TickOutput<S>, fail: &dyn Fn(&'static str, &'static str) -> Violation) -> Checked {
         let cfg = &self.cfg;
-        for (i, ((j, v), r)) in cfg_joints(cfg).zip(out.act.velocity.iter()).zip(out.act.step_rate.iter()).enumerate() {
-            let (v, r) = (*v, *r);
+        let joints = cfg_joints(cfg).zip(self.rate_max.iter());
+        for (i, ((j, rmax), (v, r))) in joints.zip(out.act.velocity.iter().zip(out.act.step_rate.iter())).enumerate() {
+            let (v, r, rmax) = (*v, *r, *rmax);
             let vmax = f64::from(j.max_velocity);
             if !(v.is_finite() && v.abs() <= S::from_f32(j.max_velocity)) {
                 return Err(fail("SR-2", "output not finite or above max velocity").on(i).got(f(v)).bound(vmax));
@@ -1528,7 +1529,6 @@ impl<S: Scalar> Monitor<S> {
                     .got(rate)
                     .bound(f64::from(cfg.max_step_rate)));
             }
-            let rmax = vmax * j.steps_per_rad() * 1.001 + 1.0;
             if rate > rmax {
                 return Err(fail("SR-2", "step rate above the joint's max velocity").on(i).got(rate).bound(rmax));
             }
@@ -1563,12 +1563,13 @@ fn first_step_over<S: Scalar>(
     None
 }
 
-/// `Err(v)` unless `ok`.
-fn ensure_ok(ok: bool, v: Violation) -> Checked {
+/// `Err(v())` unless `ok` (the violation is built only when it is one).
+#[inline(always)]
+fn ensure_ok(ok: bool, v: impl FnOnce() -> Violation) -> Checked {
     if ok {
         Ok(())
     } else {
-        Err(v)
+        Err(v())
     }
 }
 

@@ -49,8 +49,13 @@ pub fn driver_view(line: &str) -> Option<DriverView> {
     let start = line.find('<')? + 1;
     let end = line.find('>')?;
     let body = line.get(start..end)?;
-    let tok: Vec<&str> = body.split(',').collect();
-    if tok.len() != 14 && tok.len() != 15 {
+    let mut tok = [""; 15];
+    let mut n = 0;
+    for t in body.split(',') {
+        *tok.get_mut(n)? = t;
+        n += 1;
+    }
+    if n != 14 && n != 15 {
         return None;
     }
     let seq = tok[1].parse().ok()?;
@@ -60,9 +65,9 @@ pub fn driver_view(line: &str) -> Option<DriverView> {
         position[i] = tok[2 + 2 * i].parse().ok()?;
         velocity[i] = tok[3 + 2 * i].parse().ok()?;
     }
-    let homing = match tok.get(14) {
-        Some(h) => Some(h.strip_prefix('H')?.parse().ok()?),
-        None => None,
+    let homing = match n {
+        15 => Some(tok[14].strip_prefix('H')?.parse().ok()?),
+        _ => None,
     };
     Some(DriverView { seq, position, velocity, homing })
 }

@@ -152,6 +152,10 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
         let t0 = Instant::now();
         let mut r = run(&PAROL6_VALIDATED, sc, opts, &mut progress);
         r.write(out)?;
+        // The trace and the line log are in the files now; the summary
+        // needs neither (their memory is reused by the next scenario).
+        r.trace = Vec::new();
+        r.lines = Vec::new();
         let verdict = if r.failed() {
             "FAIL"
         } else if r.informational && !r.expectations_held() {

@@ -71,6 +71,21 @@ pub struct Plant {
     rng: Rng,
     /// Last commanded step rates, after the step-rate limit.
     pub applied_rate: [f64; AXES],
+    /// `JointConfig::steps_per_rad` of each joint, computed once.
+    steps_per_rad: [f64; AXES],
+}
+
+/// `x.trunc()` for `|x| < 2^63` (a step accumulator: a fraction of a step
+/// plus one tick's steps) without the libm call `f64::trunc` is on a
+/// baseline x86-64 build; the sign of a zero is kept.
+#[inline(always)]
+fn trunc(x: f64) -> f64 {
+    let t = (x as i64) as f64;
+    if t == 0.0 {
+        0.0f64.copysign(x)
+    } else {
+        t
+    }
 }
 
 impl Plant {
@@ -97,6 +112,7 @@ impl Plant {
             tick: 0,
             rng,
             applied_rate: [0.0; AXES],
+            steps_per_rad: cfg.joints.map(|j| j.steps_per_rad()),
         }
     }
 
@@ -154,14 +170,14 @@ impl Plant {
     pub fn apply(&mut self, cmds: &[StepCommand; AXES]) {
         let dt = 1.0 / f64::from(self.cfg.tick_hz);
         for i in 0..AXES {
-            let j = self.cfg.joints[i];
-            let spr = j.steps_per_rad();
+            let j = &self.cfg.joints[i];
+            let spr = self.steps_per_rad[i];
             let achieved = achieved_rate_mhz(&cmds[i], &StepConfig::DEFAULT) as f64 / 1000.0;
             let rate = achieved.clamp(-self.opts.max_step_rate, self.opts.max_step_rate);
             self.applied_rate[i] = rate;
             let a = &mut self.axes[i];
             a.step_acc += rate * dt;
-            let steps = a.step_acc.trunc();
+            let steps = trunc(a.step_acc);
             a.step_acc -= steps;
             let kept = steps * (1.0 - a.lost_fraction);
             let dir = if j.motor_reversed != a.dir_inverted { -1.0 } else { 1.0 };

@@ -226,11 +226,13 @@ impl Root {
         self.host.transmit(&mut self.port);
         self.partial.append(&mut self.port.taken);
         let mut lines = Vec::new();
-        while let Some(nl) = self.partial.iter().position(|b| *b == b'\n') {
-            let rest = self.partial.split_off(nl + 1);
-            lines.push(String::from_utf8_lossy(&self.partial).into_owned());
-            self.partial = rest;
+        let mut from = 0;
+        while let Some(nl) = self.partial[from..].iter().position(|b| *b == b'\n') {
+            let end = from + nl + 1;
+            lines.push(String::from_utf8_lossy(&self.partial[from..end]).into_owned());
+            from = end;
         }
+        self.partial.drain(..from);
         let step = Step {
             t_ms: self.t_ms,
             out: TickOutput {

@@ -166,6 +166,14 @@ impl TickChecker {
     /// Checks one step (call for every step, in order); returns the
     /// violations.
     pub fn check(&mut self, step: &Step) -> Vec<String> {
+        let driver_reads: Vec<bool> = step.lines.iter().map(|l| driver_view(l).is_some()).collect();
+        self.check_read(step, &driver_reads)
+    }
+
+    /// [`TickChecker::check`], given whether the driver reads each of the
+    /// step's lines (`driver_view(line).is_some()`, which the runner has
+    /// computed already).
+    fn check_read(&mut self, step: &Step, driver_reads: &[bool]) -> Vec<String> {
         let mut bad = Vec::new();
         let sent = step.request.map(|k| match (k, step.target) {
             (RequestKind::Motion, Some(t)) => Sent::Motion(Some(t)),
@@ -201,19 +209,21 @@ impl TickChecker {
             }
         }
         self.prev = Some(now);
-        for l in &step.lines {
-            let low = l.to_ascii_lowercase();
-            if low.contains("nan") || low.contains("inf") {
+        for (l, &reads) in step.lines.iter().zip(driver_reads) {
+            // "nan" or "inf" in any letter case (ASCII: the line is UTF-8,
+            // whose multi-byte sequences hold no ASCII letter).
+            let has = |w: &[u8; 3]| l.as_bytes().windows(3).any(|x| x.eq_ignore_ascii_case(w));
+            if has(b"nan") || has(b"inf") {
                 bad.push(format!("line contains nan/inf: {}", l.trim_end()));
             }
             if !l.bytes().all(|b| b == b'\n' || (0x20..0x7f).contains(&b)) {
                 bad.push(format!("line with non-printable bytes: {l:?}"));
             }
             let t = l.trim_start();
-            if t.starts_with('<') && driver_view(l).is_none() && !crate::client::configurator_matches(l) {
+            if t.starts_with('<') && !reads && !crate::client::configurator_matches(l) {
                 bad.push(format!("feedback line neither client can read: {}", l.trim_end()));
             }
-            if l.starts_with('<') && driver_view(l).is_none() {
+            if l.starts_with('<') && !reads {
                 bad.push(format!("a line starting with `<` that the driver would take and reject: {}", l.trim_end()));
             }
         }
@@ -387,12 +397,22 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 occ[a.index()].push(t);
             }
         }
-        for l in &step.lines {
+        let views: Vec<Option<crate::client::DriverView>> = step.lines.iter().map(|l| driver_view(l)).collect();
+        let driver_reads: Vec<bool> = views.iter().map(Option::is_some).collect();
+        let bad = checker.check_read(&step, &driver_reads);
+        for b in bad {
+            violation_count += 1;
+            if violations.len() < 50 {
+                violations.push((t, b));
+            }
+        }
+        prev_status = Some(step.out.status);
+        for (l, view) in step.lines.into_iter().zip(views) {
             lines_sent += 1;
             for key in ["REJECT", "STALE_CMD", "QUEUE_FULL", "SEQ_RESYNC"] {
                 if l.starts_with(key) {
                     // Group by reason: drop the running count.
-                    let reason = l.split(" count=").next().unwrap_or(l).trim_end().to_string();
+                    let reason = l.split(" count=").next().unwrap_or(&l).trim_end().to_string();
                     let reason = if key == "STALE_CMD" {
                         format!(
                             "STALE_CMD {}",
@@ -409,19 +429,11 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                     *wire.entry(reason).or_default() += 1;
                 }
             }
-            if let Some(v) = driver_view(l) {
+            if let Some(v) = view {
                 last_driver_view = Some(v);
             }
             if all_lines.len() < 200_000 {
-                all_lines.push((t, l.clone()));
-            }
-        }
-        prev_status = Some(step.out.status);
-        let bad = checker.check(&step);
-        for b in bad {
-            violation_count += 1;
-            if violations.len() < 50 {
-                violations.push((t, b));
+                all_lines.push((t, l));
             }
         }
         t += 1;

@@ -169,17 +169,20 @@ pub fn plot(r: &Report) -> String {
             t
         })
         .collect();
-    for j in 0..AXES {
-        let top = y0 + STRIP_H + 30.0 + j as f64 * (PANEL_H + GAP);
-        let (mut lo, mut hi) = (f64::MAX, f64::MIN);
-        let mut vmax: f64 = 1e-3;
-        for smp in tr {
+    // Each panel's range, all six in one pass over the trace (per joint
+    // the same values in the same order as one pass per panel).
+    let mut range = [(f64::MAX, f64::MIN, 1e-3f64); AXES];
+    for smp in tr {
+        for (j, (lo, hi, vmax)) in range.iter_mut().enumerate() {
             for v in [smp.q[j], smp.sp[j]] {
-                lo = lo.min(f64::from(v));
-                hi = hi.max(f64::from(v));
+                *lo = lo.min(f64::from(v));
+                *hi = hi.max(f64::from(v));
             }
-            vmax = vmax.max(f64::from(smp.v[j]).abs());
+            *vmax = vmax.max(f64::from(smp.v[j]).abs());
         }
+    }
+    for (j, &(mut lo, mut hi, vmax)) in range.iter().enumerate() {
+        let top = y0 + STRIP_H + 30.0 + j as f64 * (PANEL_H + GAP);
         if hi - lo < 1e-3 {
             lo -= 0.01;
             hi += 0.01;
