@@ -22,16 +22,29 @@
 //! number of the frame must share, never by a guess. [`DialectLock`] can
 //! further restrict the accepted dialect.
 //!
-//! Numbers are converted only after the syntax above is validated here (so
-//! `+1.000`, `1e3`, `nan`, `inf`, spaces never reach a conversion). One pass
-//! over each number checks its syntax and gathers its digits into an integer
-//! mantissa; the value, `mantissa / 10^decimals`, is then converted by
-//! [`Scalar::from_decimal`] with integer arithmetic (one exactly rounded
-//! division for `f32`), giving exactly what [`Scalar::parse_decimal`] gives
-//! for the text (checked for every mantissa below 2^24 in
-//! `protocol/tests/decimal_exhaustive.rs`). A number with more digits than a
-//! `u32` holds is converted from its text by `parse_decimal`. `None` (does
-//! not fit the scalar) is a rejection.
+//! Numbers are converted only after their syntax above is validated here
+//! (so `+1.000`, `1e3`, `nan`, `inf`, spaces never reach a conversion).
+//! Each number's digits are gathered into an integer mantissa; the value,
+//! `mantissa / 10^decimals`, is then converted by [`Scalar::from_decimal`]
+//! with integer arithmetic (one exactly rounded division for `f32`), giving
+//! exactly what [`Scalar::parse_decimal`] gives for the text (checked for
+//! every mantissa below 2^24 in `protocol/tests/decimal_exhaustive.rs`). A
+//! number with more digits than a `u32` holds is converted from its text by
+//! `parse_decimal`. `None` (does not fit the scalar) is a rejection.
+//!
+//! Two paths, one result. A *well-formed* frame (SEQ and twelve numbers of
+//! at most 9 digits, all with 3 or all with 4 decimals, every number
+//! converting) is read in one pass that checks each byte once, at the place
+//! the grammar expects it, and converts each number as soon as it is read
+//! (`well_formed`); that is every frame a host sends. Anything else goes to
+//! the general path, which runs the checks one after the other (framing,
+//! field count, empty fields, SEQ, each number's syntax and decimals, the
+//! dialect, the lock, each conversion) and so reports the first error. Both
+//! end in the same limit check. That the two paths give what the parser
+//! before issue 14 (`tests/reference`) gives, on every input, is checked by
+//! `tests/parser_equivalence.rs`, `tests/decimal_exhaustive.rs` and the fuzz
+//! targets.
+//!
 //! Every accepted target is then checked against the arm's configuration:
 //! `limit_min <= p <= limit_max` and `|v| <= max_velocity`, with the limits
 //! checked by the kernel's own [`kernel::TargetLimits`].
@@ -234,21 +247,19 @@ pub struct Parser<S> {
     lock: DialectLock,
 }
 
-/// A number: its sign, its digits as one integer and its decimals.
+/// A number: its sign and its digits as one integer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Number {
     /// A leading `-`.
     negative: bool,
     /// Its digits (integer and fraction) as one integer; `u32::MAX` when it
     /// has more than 9 digits (then the text is converted instead, by
-    /// `parse_decimal`).
+    /// `parse_decimal`; only the general path has such numbers).
     mantissa: u32,
-    /// Digits after the point (0 without a point).
-    decimals: usize,
 }
 
 /// What the single pass over a motion frame's body learns about one
-/// comma-separated field.
+/// comma-separated field (the general path).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Field {
     /// Its bytes are `body[start..end]`.
@@ -272,8 +283,9 @@ impl Field {
         body.get(self.start..self.end).unwrap_or_default()
     }
 
-    /// The number if the field is `-?[0-9]+(\.[0-9]*)?`, else `None`.
-    fn number(&self, body: &[u8]) -> Option<Number> {
+    /// The number and its decimals (digits after the point, 0 without a
+    /// point) if the field is `-?[0-9]+(\.[0-9]*)?`, else `None`.
+    fn number(&self, body: &[u8]) -> Option<(Number, usize)> {
         let negative = body.get(self.start) == Some(&b'-');
         let digits_start = self.start.saturating_add(usize::from(negative));
         if self.bad || self.dots > 1 {
@@ -288,7 +300,7 @@ impl Field {
         }
         let digits = self.end.saturating_sub(digits_start).saturating_sub(self.dots);
         let mantissa = if digits <= MAX_DIGITS { self.mantissa } else { u32::MAX };
-        Some(Number { negative, mantissa, decimals })
+        Some((Number { negative, mantissa }, decimals))
     }
 }
 
@@ -343,6 +355,149 @@ fn sat_u8(n: usize) -> u8 {
     u8::try_from(n).unwrap_or(u8::MAX)
 }
 
+/// The decimal digits at the start of `s` gathered into `acc` (`acc = 10
+/// acc + digit`, wrapping: exact while the digits in all are at most
+/// [`MAX_DIGITS`]), how many there are, and what follows them.
+#[inline(always)]
+fn take_digits(s: &[u8], mut acc: u32) -> (u32, usize, &[u8]) {
+    let mut rest = s;
+    while let [b, tail @ ..] = rest {
+        let d = u32::from(*b).wrapping_sub(u32::from(b'0'));
+        if d > 9 {
+            break;
+        }
+        acc = acc.wrapping_mul(10).wrapping_add(d);
+        rest = tail;
+    }
+    (acc, s.len().wrapping_sub(rest.len()), rest)
+}
+
+/// A leading `-` of `s`, and what follows it.
+#[inline(always)]
+fn take_sign(s: &[u8]) -> (bool, &[u8]) {
+    match s {
+        [b'-', tail @ ..] => (true, tail),
+        _ => (false, s),
+    }
+}
+
+/// The number at the start of `s` if it is `-?[0-9]+\.[0-9]*` with at most
+/// [`MAX_DIGITS`] digits, followed by `end`: the number, its decimals, and
+/// what follows `end`.
+#[inline(always)]
+fn well_formed_number(s: &[u8], end: u8) -> Option<(Number, usize, &[u8])> {
+    let (negative, s) = take_sign(s);
+    let (int, int_digits, s) = take_digits(s, 0);
+    let [b'.', s @ ..] = s else { return None };
+    let (mantissa, decimals, s) = take_digits(s, int);
+    let [b, s @ ..] = s else { return None };
+    let fits = int_digits > 0 && int_digits.saturating_add(decimals) <= MAX_DIGITS;
+    (*b == end && fits).then_some((Number { negative, mantissa }, decimals, s))
+}
+
+/// [`well_formed_number`] for a number with exactly `K` decimals: the same
+/// reading, with the `K` decimals and `end` checked at fixed places.
+#[inline(always)]
+fn number_of<const K: usize>(s: &[u8], end: u8) -> Option<(Number, &[u8])> {
+    let (negative, s) = take_sign(s);
+    let (int, int_digits, s) = take_digits(s, 0);
+    if int_digits == 0 || int_digits > MAX_DIGITS.saturating_sub(K) {
+        return None;
+    }
+    let [b'.', s @ ..] = s else { return None };
+    let (fraction, s) = s.split_first_chunk::<K>()?;
+    let mut mantissa = int;
+    for &b in fraction {
+        let d = u32::from(b).wrapping_sub(u32::from(b'0'));
+        if d > 9 {
+            return None;
+        }
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(d);
+    }
+    match s {
+        [b, s @ ..] if *b == end => Some((Number { negative, mantissa }, s)),
+        _ => None,
+    }
+}
+
+/// A number's value, or `None` if it is not a finite value of `S`.
+#[inline(always)]
+fn value_of<S: Scalar, const K: u32>(n: Number) -> Option<S> {
+    S::from_decimal(n.negative, n.mantissa, K).filter(|v| v.is_finite())
+}
+
+/// The values of fields 2..=12 of a well-formed frame whose first number
+/// has `K` (= `KU`) decimals; `s` is the text after field 1's `,`. Each
+/// number read and converted in one go; `None` if anything is not as
+/// [`well_formed`] requires.
+#[inline(always)]
+fn other_values<S: Scalar, const K: usize, const KU: u32>(
+    mut s: &[u8],
+    values: &mut [S; MOTION_FIELDS - 2],
+) -> Option<()> {
+    let [middle @ .., last] = values;
+    for v in middle {
+        let (n, tail) = number_of::<K>(s, b',')?;
+        *v = value_of::<S, KU>(n)?;
+        s = tail;
+    }
+    let (n, tail) = number_of::<K>(s, b'>')?;
+    *last = value_of::<S, KU>(n)?;
+    tail.is_empty().then_some(())
+}
+
+/// The fast path: SEQ, the dialect and the twelve values (in field order)
+/// of `rest` (the line after `<`) if it is a well-formed motion frame whose
+/// numbers all convert; `None` for anything else, which the general path
+/// then reads (and reports exactly). Well formed: SEQ of 1 to
+/// [`MAX_DIGITS`] digits, twelve numbers `-?[0-9]+\.[0-9]+` of at most
+/// [`MAX_DIGITS`] digits each, all with 3 or all with 4 decimals, separated
+/// by `,`, then `>` and the end of the line. One pass: each byte is looked
+/// at once, as what the grammar expects at its place, and each number is
+/// converted as soon as it is read.
+///
+/// On such a frame the general path finds 13 non-empty fields, a valid SEQ
+/// of the same value, twelve numbers with these signs, mantissas and
+/// decimals, so the same dialect, and converts each number with the same
+/// [`Scalar::from_decimal`] call; every other line (a 10-digit SEQ or
+/// number, a number that does not convert, included) gets `None` here.
+#[inline(always)]
+fn well_formed<S: Scalar>(rest: &[u8]) -> Option<(u32, Dialect, [S; MOTION_FIELDS - 1])> {
+    let (seq, seq_digits, s) = take_digits(rest, 0);
+    let [b',', s @ ..] = s else { return None };
+    if seq_digits == 0 || seq_digits > MAX_DIGITS {
+        return None;
+    }
+    let (first, decimals, s) = well_formed_number(s, b',')?;
+    let mut values = [S::ZERO; MOTION_FIELDS - 1];
+    let [value, others @ ..] = &mut values;
+    let dialect = match decimals {
+        3 => {
+            *value = value_of::<S, 3>(first)?;
+            other_values::<S, 3, 3>(s, others)?;
+            Dialect::Driver
+        }
+        4 => {
+            *value = value_of::<S, 4>(first)?;
+            other_values::<S, 4, 4>(s, others)?;
+            Dialect::Configurator
+        }
+        _ => return None,
+    };
+    Some((seq, dialect, values))
+}
+
+/// A converted value, or why it is rejected.
+#[inline(always)]
+fn checked<S: Scalar>(field: usize, v: Option<S>) -> Result<S, ParseError> {
+    let v = v.ok_or_else(|| ParseError::OutOfRange { field: sat_u8(field) })?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ParseError::NonFinite { field: sat_u8(field) })
+    }
+}
+
 impl<S: Scalar> Parser<S> {
     /// A parser for `config`'s limits with the given lock.
     pub fn new(config: &Validated, lock: DialectLock) -> Self {
@@ -363,7 +518,7 @@ impl<S: Scalar> Parser<S> {
     pub fn parse(&self, line: &[u8]) -> Result<Command<S>, ParseError> {
         let rest = line.strip_prefix(b"<").ok_or(ParseError::MissingStart)?;
         if rest.first().is_some_and(|b| !b.is_ascii_alphabetic() && *b != b'>') {
-            // A motion frame (or junk): one pass finds the end too.
+            // A motion frame (or junk).
             return self.motion(rest);
         }
         let end = rest.iter().position(|&b| b == b'>').ok_or(ParseError::MissingEnd)?;
@@ -387,8 +542,40 @@ impl<S: Scalar> Parser<S> {
     }
 
     /// A motion frame: `rest` is the line after `<`, starting with neither a
-    /// letter nor `>`.
+    /// letter nor `>`. A well-formed frame (every frame a host sends) takes
+    /// the fast path; anything else the general one, which finds the exact
+    /// error.
     fn motion(&self, rest: &[u8]) -> Result<Command<S>, ParseError> {
+        match well_formed::<S>(rest) {
+            Some((seq, dialect, values)) if self.allows(dialect) => {
+                let mut target =
+                    MotionTarget { position: [S::ZERO; AXES], velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
+                match dialect {
+                    // p1, v1, ..., p6, v6
+                    Dialect::Driver => {
+                        let pairs = values.chunks_exact(2);
+                        for ((p, v), pair) in target.position.iter_mut().zip(&mut target.velocity).zip(pairs) {
+                            if let [pv, vv] = pair {
+                                (*p, *v) = (*pv, *vv);
+                            }
+                        }
+                    }
+                    // p1..p6, v1..v6
+                    Dialect::Configurator => {
+                        let [p @ .., _, _, _, _, _, _] = values;
+                        let [_, _, _, _, _, _, v @ ..] = values;
+                        (target.position, target.velocity) = (p, v);
+                    }
+                }
+                self.command(seq, dialect, target)
+            }
+            _ => self.general(rest),
+        }
+    }
+
+    /// The general path: any line after `<` (see [`Self::motion`]), with the
+    /// checks in the documented order.
+    fn general(&self, rest: &[u8]) -> Result<Command<S>, ParseError> {
         let mut fields = [Field::default(); MOTION_FIELDS];
         let (found, end) = scan_fields(rest, &mut fields);
         let end = end.ok_or(ParseError::MissingEnd)?;
@@ -408,8 +595,9 @@ impl<S: Scalar> Parser<S> {
         let mut nums = [Number::default(); MOTION_FIELDS];
         let mut threes = 0usize;
         for ((i, f), n) in (1u8..).zip(fields.iter().skip(1)).zip(nums.iter_mut().skip(1)) {
-            *n = f.number(body).ok_or(ParseError::NonNumeric { field: i })?;
-            match n.decimals {
+            let (number, decimals) = f.number(body).ok_or(ParseError::NonNumeric { field: i })?;
+            *n = number;
+            match decimals {
                 3 => threes = threes.saturating_add(1),
                 4 => {}
                 d => return Err(ParseError::BadDecimals { field: i, decimals: sat_u8(d) }),
@@ -420,32 +608,22 @@ impl<S: Scalar> Parser<S> {
             0 => Dialect::Configurator,
             _ => return Err(ParseError::MixedDialect),
         };
-        match (self.lock, dialect) {
-            (DialectLock::DriverOnly, Dialect::Configurator) | (DialectLock::ConfiguratorOnly, Dialect::Driver) => {
-                return Err(ParseError::DialectLocked { found: dialect })
-            }
-            _ => {}
+        if !self.allows(dialect) {
+            return Err(ParseError::DialectLocked { found: dialect });
         }
-
-        let value = |field: usize| -> Result<S, ParseError> {
-            let idx = sat_u8(field);
-            let n = nums.get(field).ok_or(ParseError::OutOfRange { field: idx })?;
+        let value = |field: usize| {
+            let n = nums.get(field).copied().unwrap_or_default();
             let v = if n.mantissa == u32::MAX {
                 // More than 9 digits (beyond every limit unless padded with
                 // zeros): the text parser's verdict, whatever it is.
-                let text = fields.get(field).ok_or(ParseError::OutOfRange { field: idx })?.text(body);
-                let text = core::str::from_utf8(text).map_err(|_| ParseError::NonNumeric { field: idx })?;
+                let text = fields.get(field).map_or(&[][..], |f| f.text(body));
+                let text = core::str::from_utf8(text).map_err(|_| ParseError::NonNumeric { field: sat_u8(field) })?;
                 S::parse_decimal(text)
             } else {
                 // Exactly `parse_decimal` of the text (`Scalar::from_decimal`).
                 S::from_decimal(n.negative, n.mantissa, dialect.decimals() as u32)
             };
-            let v = v.ok_or(ParseError::OutOfRange { field: idx })?;
-            if v.is_finite() {
-                Ok(v)
-            } else {
-                Err(ParseError::NonFinite { field: idx })
-            }
+            checked(field, v)
         };
         let mut target =
             MotionTarget { position: [S::ZERO; AXES], velocity: [S::ZERO; AXES], kind: MotionKind::Stream };
@@ -453,6 +631,21 @@ impl<S: Scalar> Parser<S> {
             *p = value(pf)?;
             *v = value(vf)?;
         }
+        self.command(seq, dialect, target)
+    }
+
+    /// True if the lock lets `dialect` through.
+    fn allows(&self, dialect: Dialect) -> bool {
+        !matches!(
+            (self.lock, dialect),
+            (DialectLock::DriverOnly, Dialect::Configurator) | (DialectLock::ConfiguratorOnly, Dialect::Driver)
+        )
+    }
+
+    /// The command for a frame whose values are all read: its kind, then
+    /// the joint limits.
+    #[inline(always)]
+    fn command(&self, seq: u32, dialect: Dialect, mut target: MotionTarget<S>) -> Result<Command<S>, ParseError> {
         // The configurator's "go to" is one frame with every velocity zero
         // (docs/PROTOCOL.md section 6): a point-to-point move. Every driver
         // frame, and a configurator frame with a velocity, is a stream
@@ -537,7 +730,7 @@ mod tests {
     }
 
     /// [`Field::number`] of `text` scanned as the first field of a frame.
-    fn number(text: &[u8]) -> Option<Number> {
+    fn number(text: &[u8]) -> Option<(Number, usize)> {
         let mut rest = text.to_vec();
         rest.push(b'>');
         let mut fields = [Field::default(); MOTION_FIELDS];
@@ -547,7 +740,7 @@ mod tests {
 
     #[test]
     fn number_syntax() {
-        let n = |negative, mantissa, decimals| Some(Number { negative, mantissa, decimals });
+        let n = |negative, mantissa, decimals| Some((Number { negative, mantissa }, decimals));
         assert_eq!(number(b"0.000"), n(false, 0, 3));
         assert_eq!(number(b"-12.3456"), n(true, 123_456, 4));
         assert_eq!(number(b"-0.000"), n(true, 0, 3));
@@ -560,23 +753,50 @@ mod tests {
             assert_eq!(number(bad), None, "{}", String::from_utf8_lossy(bad));
         }
         // Every string of up to 7 characters over a small alphabet: the
-        // verdict and decimals are the old check's, the mantissa the digits'.
+        // verdict and decimals are the old check's, the mantissa the digits';
+        // the fast path's reading ([`well_formed_number`], [`number_of`]) is
+        // the general one's wherever it accepts, and it accepts exactly the
+        // numbers with a point and at most 9 digits (and `K` decimals).
         let alphabet = b"-.0159x";
         for len in 0..=7 {
             let mut idx = vec![0usize; len];
             loop {
                 let t: Vec<u8> = idx.iter().map(|&i| alphabet[i]).collect();
                 let got = number(&t);
-                assert_eq!(got.map(|n| n.decimals), number_decimals(&t), "{}", String::from_utf8_lossy(&t));
-                if let Some(n) = got {
+                assert_eq!(got.map(|n| n.1), number_decimals(&t), "{}", String::from_utf8_lossy(&t));
+                if let Some((n, _)) = got {
                     let digits: String = t.iter().filter(|b| b.is_ascii_digit()).map(|&b| b as char).collect();
                     assert_eq!(n.mantissa, digits.parse::<u32>().unwrap());
                     assert_eq!(n.negative, t[0] == b'-');
+                }
+                for end in [b',', b'>'] {
+                    let mut line = t.clone();
+                    line.extend_from_slice(&[end, b'x']);
+                    let fast = well_formed_number(&line, end);
+                    let want = got.filter(|(n, _)| t.contains(&b'.') && n.mantissa != u32::MAX);
+                    assert_eq!(
+                        fast.map(|(n, d, rest)| (n, d, rest.to_vec())),
+                        want.map(|(n, d)| (n, d, b"x".to_vec()))
+                    );
+                    // With the decimals fixed: the same reading, for that count.
+                    let with = |k: usize| fast.filter(|f| f.1 == k).map(|(n, _, rest)| (n, rest));
+                    assert_eq!(number_of::<3>(&line, end), with(3));
+                    assert_eq!(number_of::<4>(&line, end), with(4));
                 }
                 let Some(p) = idx.iter().rposition(|&i| i + 1 < alphabet.len()) else { break };
                 idx[p] += 1;
                 idx[p + 1..].iter_mut().for_each(|i| *i = 0);
             }
+        }
+        // The fast path's digit bound: at most 9 digits in all.
+        let m = |negative, mantissa| Number { negative, mantissa };
+        assert_eq!(well_formed_number(b"-999999.999,", b','), Some((m(true, 999_999_999), 3, &b""[..])));
+        assert_eq!(number_of::<3>(b"-999999.999,", b','), Some((m(true, 999_999_999), &b""[..])));
+        assert_eq!(number_of::<4>(b"99999.9999>", b'>'), Some((m(false, 999_999_999), &b""[..])));
+        for long in [&b"9999999.999,"[..], b"0000000.000,", b"999999.9999,", b"1.000000000,"] {
+            assert_eq!(well_formed_number(long, b','), None);
+            assert_eq!(number_of::<3>(long, b','), None);
+            assert_eq!(number_of::<4>(long, b','), None);
         }
         assert_eq!(parse_seq(b"4294967295"), Ok(u32::MAX));
         assert_eq!(parse_seq(b"4294967296"), Err(ParseError::SeqOverflow));
