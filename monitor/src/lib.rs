@@ -604,7 +604,19 @@ impl<S: Scalar> Monitor<S> {
                 }
             }};
         }
-        let has = |want: &Event| out.events.iter().any(|e| e == want);
+        // The unit-like events the checks below look for, in one pass.
+        let (mut ev_ready, mut ev_after_stop, mut ev_link_stop, mut ev_holding, mut ev_stopped) =
+            (false, false, false, false, false);
+        for e in out.events.iter() {
+            match e {
+                Event::Ready => ev_ready = true,
+                Event::HomingAfterStop => ev_after_stop = true,
+                Event::SoftEstop { cause: StopCause::LinkLost } => ev_link_stop = true,
+                Event::Holding => ev_holding = true,
+                Event::Stopped => ev_stopped = true,
+                _ => {}
+            }
+        }
 
         // SR-15: refusals are reported; none may be lost.
         ensure!(out.events.dropped() == 0, fail("SR-15", "events dropped").got(f64::from(out.events.dropped())));
@@ -633,7 +645,7 @@ impl<S: Scalar> Monitor<S> {
             _ => None,
         };
         let home_sent = matches!(sent, Some(Sent::Home | Sent::HomeJoint(_)));
-        let after_stop = has(&Event::HomingAfterStop);
+        let after_stop = ev_after_stop;
         let homing_started = out.events.iter().any(|e| matches!(e, Event::HomingStarted { .. }));
         // The target the set-points move toward in this tick (Operational):
         // this tick's accepted target, else the last one.
@@ -660,7 +672,7 @@ impl<S: Scalar> Monitor<S> {
         }
 
         // SR-1: leaving Boot, each estimate is the encoder's actual reading.
-        if has(&Event::Ready) {
+        if ev_ready {
             ensure!(prev == State::Boot, fail("SR-1", "Ready outside Boot"));
             if plant.is_some_and(|p| p.clean_since_start) {
                 for (i, ((j, e), (x, v))) in cfg_joints(&self.cfg)
@@ -814,8 +826,8 @@ impl<S: Scalar> Monitor<S> {
         let stop_event = out.events.iter().any(|e| matches!(e, Event::SoftEstop { .. }));
         let timeout_stop =
             out.events.iter().any(|e| matches!(e, Event::SoftEstop { cause: StopCause::CommandTimeout { .. } }));
-        let link_stop = has(&Event::SoftEstop { cause: StopCause::LinkLost });
-        let holding = has(&Event::Holding);
+        let link_stop = ev_link_stop;
+        let holding = ev_holding;
         let waited = self.since_accept.map(|t| t.saturating_add(1));
         let due = prev == State::Operational && self.prev_armed && waited == Some(self.timeout_ticks) && !accepted;
         let timing = |sr, what| fail(sr, what).got(waited.map_or(-1.0, f64::from)).bound(f64::from(self.timeout_ticks));
@@ -931,7 +943,7 @@ impl<S: Scalar> Monitor<S> {
                     );
                 }
                 _ => {
-                    ensure!(all_zero && has(&Event::Stopped), fail("SR-7", "ramp end without zero output and Stopped"))
+                    ensure!(all_zero && ev_stopped, fail("SR-7", "ramp end without zero output and Stopped"))
                 }
             }
         }
@@ -941,7 +953,7 @@ impl<S: Scalar> Monitor<S> {
         {
             return Err(fail("SR-7", "left Stopping other than to SoftEstop, Fault, or Homing after a HOME"));
         }
-        if has(&Event::Stopped) {
+        if ev_stopped {
             // The ramp can end in the tick a fault is detected: the fault
             // then takes the arm to Fault instead of SoftEstop (found by a
             // differential run, session 2).

@@ -13,8 +13,6 @@
 //! [`hal_imxrt::pure::channel::EncoderChannel`]: the decoder that is flashed.
 //! The counter is exact: the number of timer edges that fall inside HIGH time.
 
-use std::collections::VecDeque;
-
 use hal_imxrt::pure::encoder::{LossReason, FRAME_CLOCKS, START_CLOCKS};
 use hal_imxrt::pure::frame::Snapshot;
 
@@ -45,6 +43,52 @@ pub enum Line {
 struct Frame {
     start: f64,
     high_end: f64,
+    /// `ceil(start / 32)` and `ceil(high_end / 32)`: the index of the first
+    /// timer edge at or after each (see [`edge_index`]).
+    start_edge: i64,
+    high_end_edge: i64,
+}
+
+/// The last (at most) four frames, oldest first: a frame pushed into a full
+/// buffer drops the oldest.
+#[derive(Clone, Copy, Debug)]
+struct Frames {
+    buf: [Frame; 4],
+    len: usize,
+}
+
+impl Frames {
+    const EMPTY: Frames =
+        Frames { buf: [Frame { start: 0.0, high_end: 0.0, start_edge: 0, high_end_edge: 0 }; 4], len: 0 };
+
+    fn push_back(&mut self, f: Frame) {
+        if self.len == self.buf.len() {
+            self.pop_front();
+        }
+        if let Some(slot) = self.buf.get_mut(self.len) {
+            *slot = f;
+            self.len += 1;
+        }
+    }
+
+    fn pop_front(&mut self) {
+        if self.len > 0 {
+            self.buf.copy_within(1..self.len, 0);
+            self.len -= 1;
+        }
+    }
+
+    fn front(&self) -> Option<&Frame> {
+        self.as_slice().first()
+    }
+
+    fn as_slice(&self) -> &[Frame] {
+        &self.buf[..self.len]
+    }
+
+    fn iter(&self) -> core::slice::Iter<'_, Frame> {
+        self.as_slice().iter()
+    }
 }
 
 /// Counts of decode outcomes (for the report).
@@ -139,15 +183,19 @@ fn round_i64(x: f64) -> i64 {
     }
 }
 
-/// Timer edges (every 32 CPU cycles) in `(a, b]`: `ceil(b / 32) - ceil(a / 32)`
-/// (the divisions by a power of two are exact).
+/// `ceil(t / 32)`: the index of the first timer edge (every 32 CPU cycles)
+/// at or after `t` (the division by a power of two is exact).
 #[inline(always)]
-fn edges(a: f64, b: f64) -> u64 {
-    if b <= a {
-        0
-    } else {
-        (ceil_i64(b / CYCLES_PER_QT_TICK) - ceil_i64(a / CYCLES_PER_QT_TICK)).max(0) as u64
-    }
+fn edge_index(t: f64) -> i64 {
+    ceil_i64(t / CYCLES_PER_QT_TICK)
+}
+
+/// Timer edges in `(a, b]`, from the edge indices of `a` and `b`:
+/// `ceil(b / 32) - ceil(a / 32)`, zero when `b <= a` (the indices are
+/// monotonic, so the difference is then not positive).
+#[inline(always)]
+fn edges(a_edge: i64, b_edge: i64) -> u64 {
+    (b_edge - a_edge).max(0) as u64
 }
 
 /// One MT6816 and its QuadTimer channel.
@@ -155,12 +203,17 @@ fn edges(a: f64, b: f64) -> u64 {
 pub struct Encoder {
     period: f64,
     next_start: f64,
-    frames: VecDeque<Frame>,
+    /// The frames that can still matter (at most the last four).
+    frames: Frames,
+    /// Converts nominal PWM clocks (in CPU cycles) to this encoder's.
+    clock_scale: f64,
     /// Gated counter (high ticks since power-on) at `last_sample`.
     gated: u64,
     capt: u16,
     ief: bool,
     last_sample: f64,
+    /// `edge_index(last_sample)`.
+    last_sample_edge: i64,
     /// Gaussian noise on each frame's count (counts, sigma).
     pub noise: f64,
     /// Line state (fault injection).
@@ -177,30 +230,28 @@ impl Encoder {
         Encoder {
             period,
             next_start: phase.rem_euclid(1.0) * period,
-            frames: VecDeque::new(),
+            frames: Frames::EMPTY,
+            clock_scale: period / (f64::from(FRAME_CLOCKS) * CYCLES_PER_PWM_CLOCK),
             gated: 0,
             capt: 0,
             ief: false,
             last_sample: 0.0,
+            last_sample_edge: 0,
             noise,
             line: Line::Ok,
             glitch: None,
         }
     }
 
-    fn high_ticks(&self, a: f64, b: f64) -> u64 {
+    /// Timer edges in `(a, b]` while the pin is high, from the edge indices
+    /// of `a` and `b`: per frame, the edges in `(max(start, a), min(high_end,
+    /// b)]`, whose edge indices are the max and min of the ends' (`ceil` is
+    /// monotonic).
+    fn high_ticks(&self, a_edge: i64, b_edge: i64) -> u64 {
         match self.line {
             Line::StuckLow => 0,
-            Line::StuckHigh => edges(a, b),
-            // Frames are disjoint and ordered (HIGH ends before the next
-            // frame starts): only those whose HIGH time reaches past `a`
-            // can count (the others give empty intervals).
-            Line::Ok => self
-                .frames
-                .iter()
-                .filter(|f| f.high_end > a && f.start < b)
-                .map(|f| edges(f.start.max(a), f.high_end.min(b)))
-                .sum(),
+            Line::StuckHigh => edges(a_edge, b_edge),
+            Line::Ok => self.frames.iter().map(|f| edges(f.start_edge.max(a_edge), f.high_end_edge.min(b_edge))).sum(),
         }
     }
 
@@ -238,29 +289,31 @@ impl Encoder {
                 self.glitch = if n > 1 { Some((off, n - 1)) } else { None };
             }
             let count = c.rem_euclid(4096) as f64;
-            let high_end = start
-                + (f64::from(START_CLOCKS) + count)
-                    * CYCLES_PER_PWM_CLOCK
-                    * (self.period / (f64::from(FRAME_CLOCKS) * CYCLES_PER_PWM_CLOCK));
-            self.frames.push_back(Frame { start, high_end });
+            let high_end = start + (f64::from(START_CLOCKS) + count) * CYCLES_PER_PWM_CLOCK * self.clock_scale;
+            self.frames.push_back(Frame {
+                start,
+                high_end,
+                start_edge: edge_index(start),
+                high_end_edge: edge_index(high_end),
+            });
             self.next_start += self.period;
         }
-        while self.frames.len() > 4 {
-            self.frames.pop_front();
-        }
-        // (Frames whose HIGH time ended by the previous read are dropped at
+        // (Only the last four frames are kept: `push_back` drops the oldest.
+        // Frames whose HIGH time ended by the previous read were dropped at
         // its end, below: they count nothing, raise no edge and are no
         // longer the pin's level.)
         // 2. Rising edges in (t_prev, t_now]: CAPT := counter at the edge.
+        let (prev_edge, now_edge) = (self.last_sample_edge, edge_index(t_now));
         if self.line == Line::Ok {
             for f in self.frames.iter().filter(|f| f.start > t_prev && f.start <= t_now) {
-                self.capt = self.gated.wrapping_add(self.high_ticks(t_prev, f.start)) as u16;
+                self.capt = self.gated.wrapping_add(self.high_ticks(prev_edge, f.start_edge)) as u16;
                 self.ief = true;
             }
         }
         // 3. The gated counter at t_now.
-        self.gated = self.gated.wrapping_add(self.high_ticks(t_prev, t_now));
+        self.gated = self.gated.wrapping_add(self.high_ticks(prev_edge, now_edge));
         self.last_sample = t_now;
+        self.last_sample_edge = now_edge;
         // 4. The read: SCTRL, CAPT, CNTR + CYCCNT, clear IEF, SCTRL again.
         let input_high = self.pin_high(t_now);
         let edge_during_read = self.line == Line::Ok

@@ -73,6 +73,9 @@ pub struct Plant {
     pub applied_rate: [f64; AXES],
     /// `JointConfig::steps_per_rad` of each joint, computed once.
     steps_per_rad: [f64; AXES],
+    /// The joint angle (its bits) and motor counts of each axis at the
+    /// last read.
+    last_counts: [Option<(u64, f64)>; AXES],
 }
 
 /// `x.trunc()` for `|x| < 2^63` (a step accumulator: a fraction of a step
@@ -113,6 +116,7 @@ impl Plant {
             rng,
             applied_rate: [0.0; AXES],
             steps_per_rad: cfg.joints.map(|j| j.steps_per_rad()),
+            last_counts: [None; AXES],
         }
     }
 
@@ -151,7 +155,15 @@ impl Plant {
         let mut out =
             [Snapshot { ief: false, input_high: false, capt: 0, cntr: 0, cycles: 0, consistent: false }; AXES];
         for i in 0..AXES {
-            let (cp, cn) = (self.motor_counts(i, self.axes[i].q_prev), self.motor_counts(i, self.axes[i].q));
+            let (q_prev, q) = (self.axes[i].q_prev, self.axes[i].q);
+            // The previous read's angle is usually this one's start: reuse
+            // its counts (the same function of the same value).
+            let cp = match self.last_counts[i] {
+                Some((bits, c)) if bits == q_prev.to_bits() => c,
+                _ => self.motor_counts(i, q_prev),
+            };
+            let cn = self.motor_counts(i, q);
+            self.last_counts[i] = Some((q.to_bits(), cn));
             out[i] = self.axes[i].encoder.sample(t, cp, cn, &mut self.rng);
         }
         out

@@ -231,6 +231,12 @@ impl TickChecker {
     }
 }
 
+/// The samples from time `at` on (the trace's times increase strictly: one
+/// sample per tick).
+fn from_t(trace: &[Sample], at: u64) -> &[Sample] {
+    &trace[trace.partition_point(|s| s.t < at)..]
+}
+
 /// Runs one scenario; `progress` is called with the fraction done.
 pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn FnMut(f64)) -> Report {
     let mut popts = PlantOptions::new(cfg.config());
@@ -254,6 +260,18 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     let mut streams: Vec<Stream> = Vec::new();
     let mut occ: [Vec<u64>; 4] = Default::default();
     let mut trace: Vec<Sample> = Vec::new();
+    // Tracking: set-point vs true position while following a stream
+    // (Operational, a motion accepted within the last 50 ms).
+    let mut err = [JointError::default(); AXES];
+    let mut err_ref = [JointError::default(); AXES];
+    let mut last_acc: Option<u64> = None;
+    let mut burst_len = 0u32;
+    // Largest commanded acceleration per joint in every state (rad/s^2),
+    // except where no limit applies (`accel_step`).
+    let mut accel = [0.0f64; AXES];
+    // Times of accepted motion commands and of accepted requests.
+    let mut acc: Vec<u64> = Vec::new();
+    let mut req_ok: Vec<u64> = Vec::new();
     let mut violations: Vec<(u64, String)> = Vec::new();
     let mut violation_count = 0u64;
     let mut faults: Vec<(u64, String)> = Vec::new();
@@ -375,6 +393,34 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             request_ok: step.request.is_some() && !out.events.iter().any(|e| matches!(e, Event::Rejected { .. })),
             reference,
         });
+        // The run's statistics, from this sample (and the one before), while
+        // it is at hand.
+        if let [.., w0, s] = trace.as_slice() {
+            for (i, a) in accel.iter_mut().enumerate() {
+                if let Some(dv) = accel_step(w0, s, i) {
+                    *a = a.max(dv * f64::from(cfg.config().tick_hz));
+                }
+            }
+        }
+        if let Some(s) = trace.last() {
+            if s.accepted {
+                burst_len = if last_acc.is_some_and(|a| s.t - a <= 100) { burst_len + 1 } else { 1 };
+                last_acc = Some(s.t);
+                acc.push(s.t);
+            }
+            if s.request_ok {
+                req_ok.push(s.t);
+            }
+            let following = s.state == State::Operational && last_acc.is_some_and(|a| s.t - a <= 50) && burst_len >= 2;
+            if following {
+                for i in 0..AXES {
+                    err[i].add(f64::from(s.sp[i]) - f64::from(s.q[i]));
+                    if s.reference[i].is_finite() {
+                        err_ref[i].add(f64::from(s.reference[i]) - f64::from(s.q[i]));
+                    }
+                }
+            }
+        }
         for e in out.events.iter() {
             match e {
                 Event::Fault(r) => {
@@ -440,42 +486,8 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     }
     progress(1.0);
 
-    // Tracking: set-point vs true position while following a stream
-    // (Operational, a motion accepted within the last 50 ms).
-    let mut err = [JointError::default(); AXES];
-    let mut err_ref = [JointError::default(); AXES];
-    // Largest commanded acceleration per joint in every state (rad/s^2),
-    // except where no limit applies (`accel_step`).
-    let mut accel = [0.0f64; AXES];
-    for w in trace.windows(2) {
-        for (i, a) in accel.iter_mut().enumerate() {
-            if let Some(dv) = accel_step(&w[0], &w[1], i) {
-                *a = a.max(dv * f64::from(cfg.config().tick_hz));
-            }
-        }
-    }
-    let mut last_acc: Option<u64> = None;
-    let mut burst_len = 0u32;
-    for s in &trace {
-        if s.accepted {
-            burst_len = if last_acc.is_some_and(|a| s.t - a <= 100) { burst_len + 1 } else { 1 };
-            last_acc = Some(s.t);
-        }
-        let following = s.state == State::Operational && last_acc.is_some_and(|a| s.t - a <= 50) && burst_len >= 2;
-        if following {
-            for i in 0..AXES {
-                err[i].add(f64::from(s.sp[i]) - f64::from(s.q[i]));
-                if s.reference[i].is_finite() {
-                    err_ref[i].add(f64::from(s.reference[i]) - f64::from(s.q[i]));
-                }
-            }
-        }
-    }
-    // Stop episodes: the last accepted motion before a gap of > 100 ms, to
-    // the first tick from which every output stays zero until the next one.
-    // (A later accepted request of any kind - HOME, ENABLE - also ends the window.)
-    let acc: Vec<u64> = trace.iter().filter(|s| s.accepted).map(|s| s.t).collect();
-    let req_ok: Vec<u64> = trace.iter().filter(|s| s.request_ok).map(|s| s.t).collect();
+    // (The tracking errors, the largest accelerations and the accepted
+    // requests' times were accumulated tick by tick, above.)
     let mut stops: Vec<(u64, Option<u64>)> = Vec::new();
     for (k, &a) in acc.iter().enumerate() {
         let next = acc.get(k + 1).copied();
@@ -484,7 +496,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         }
         let until = req_ok.iter().copied().find(|&r| r > a).unwrap_or(t);
         let mut still_from: Option<u64> = None;
-        for s in trace.iter().filter(|s| s.t > a && s.t < until) {
+        for s in from_t(&trace, a.saturating_add(1)).iter().take_while(|s| s.t < until) {
             if s.still {
                 still_from.get_or_insert(s.t);
             } else {
@@ -498,7 +510,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
     let goal = stops.last().and_then(|&(a, dt)| {
         let tg = targets.iter().rev().find(|(ta, _)| *ta == a)?.1;
         let at = a + dt.unwrap_or(0);
-        let s = trace.iter().find(|s| s.t >= at).or(trace.last())?;
+        let s = from_t(&trace, at).first().or(trace.last())?;
         Some((0..AXES).map(|i| (f64::from(tg[i]) - f64::from(s.q[i])).abs()).fold(0.0, f64::max))
     });
 
@@ -510,7 +522,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
         + refusals.values().sum::<u64>();
 
     // Expectations.
-    let state_at = |at: u64| trace.iter().find(|s| s.t >= at).map(|s| s.state);
+    let state_at = |at: u64| from_t(&trace, at).first().map(|s| s.state);
     let mut expectations = Vec::new();
     let cfgc = cfg.config();
     let window = |w: &When| w.resolve(&occ);
@@ -580,7 +592,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             Expect::MovingAfter(w) => match w.resolve(&occ) {
                 None => (false, format!("{w} never happened")),
                 Some(at) => {
-                    let m = trace.iter().find(|s| s.t > at && !s.still);
+                    let m = from_t(&trace, at.saturating_add(1)).iter().find(|s| !s.still);
                     (m.is_some(), m.map(|s| format!("moving at {} ms", s.t)).unwrap_or("never moved".into()))
                 }
             },
@@ -650,7 +662,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             }
             Expect::ExcursionBelow(j, w, bound) => match window(w) {
                 None => (false, format!("{w} never happened")),
-                Some(at) => match trace.iter().find(|s| s.t >= at) {
+                Some(at) => match from_t(&trace, at).first() {
                     None => (false, "no sample".into()),
                     Some(s0) => {
                         let q0 = f64::from(s0.q[*j]);
@@ -665,7 +677,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
             },
             Expect::StillBetween(a, b) => match (window(a), window(b)) {
                 (Some(a), Some(b)) => {
-                    let m = trace.iter().find(|s| s.t >= a && s.t <= b && !s.still);
+                    let m = from_t(&trace, a).iter().take_while(|s| s.t <= b).find(|s| !s.still);
                     (
                         m.is_none(),
                         m.map(|s| {
@@ -684,7 +696,7 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 None => (false, format!("{w} never happened")),
                 Some(at) => {
                     let tg = targets.iter().rev().find(|(ta, _)| *ta <= at);
-                    let s = trace.iter().find(|s| s.t >= at.min(t.saturating_sub(1)));
+                    let s = from_t(&trace, at.min(t.saturating_sub(1))).first();
                     match (tg, s) {
                         (Some((ta, tg)), Some(s)) => {
                             let (i, d) = (0..AXES)
@@ -703,7 +715,11 @@ pub fn run(cfg: &Validated, sc: &Scenario, opts: &RunOptions, progress: &mut dyn
                 (Some(a), Some(b)) => {
                     let mut worst: Option<(f64, usize, u64)> = None;
                     let mut bad: Option<(f64, usize, u64)> = None;
-                    for w in trace.windows(2).filter(|w| w[1].t > a && w[1].t <= b) {
+                    // (Only the windows ending in (a, b]: from the sample
+                    // before the first after `a` to the last up to `b`.)
+                    let lo = trace.partition_point(|s| s.t <= a).max(1) - 1;
+                    let hi = trace.partition_point(|s| s.t <= b).max(lo);
+                    for w in trace[lo..hi].windows(2).filter(|w| w[1].t > a && w[1].t <= b) {
                         for i in 0..AXES {
                             let Some(dv) = accel_step(&w[0], &w[1], i) else { continue };
                             let lim = f64::from(cfgc.joints[i].max_acceleration) / f64::from(cfgc.tick_hz);
