@@ -478,6 +478,15 @@ pub struct Monitor<S> {
     /// SR-2: each joint's largest step rate (its max velocity in steps,
     /// 0.1 % and one step of slack), computed once from `cfg`.
     rate_max: [f64; AXES],
+    /// Per-joint bounds computed once from `cfg` (the same expressions the
+    /// checks below once evaluated every tick): SR-7's soft-stop step
+    /// `max_velocity / N`, SR-18's `max_velocity / tick_hz`, SR-25's and
+    /// SR-27's `max_acceleration / tick_hz`, SR-28's phase travel bounds.
+    stop_step: [f64; AXES],
+    vel_per_tick: [f64; AXES],
+    acc_per_tick: [f64; AXES],
+    fast_seek_travel: [f64; AXES],
+    phase_travel: [f64; AXES],
     /// Coverage counters.
     pub stats: Stats,
 }
@@ -489,10 +498,12 @@ impl<S: Scalar> Monitor<S> {
     /// tick run yet).
     pub fn new(cfg: &ArmConfig) -> Self {
         let stop = ms_to_ticks(cfg.soft_stop_ms, cfg.tick_hz);
+        let stop_ticks = if stop == 0 { 1 } else { stop };
+        let (hz, n) = (f64::from(cfg.tick_hz), f64::from(stop_ticks));
         Monitor {
             cfg: *cfg,
             timeout_ticks: ms_to_ticks(cfg.command_timeout_ms, cfg.tick_hz),
-            stop_ticks: if stop == 0 { 1 } else { stop },
+            stop_ticks,
             prev_out: [S::ZERO; AXES],
             prev_state: State::Boot,
             prev_armed: false,
@@ -518,6 +529,11 @@ impl<S: Scalar> Monitor<S> {
             home_origin: [0.0; AXES],
             fe_over: [0; AXES],
             rate_max: cfg.joints.map(|j| f64::from(j.max_velocity) * j.steps_per_rad() * 1.001 + 1.0),
+            stop_step: cfg.joints.map(|j| f64::from(j.max_velocity) / n),
+            vel_per_tick: cfg.joints.map(|j| f64::from(j.max_velocity) / hz),
+            acc_per_tick: cfg.joints.map(|j| f64::from(j.max_acceleration) / hz),
+            fast_seek_travel: cfg.joints.map(|j| f64::from(j.homing.max_travel)),
+            phase_travel: cfg.joints.map(|j| f64::from(j.homing_phase_travel())),
             stats: Stats::default(),
         }
     }
@@ -914,9 +930,7 @@ impl<S: Scalar> Monitor<S> {
                     fail("SR-7", "soft stop reversed").on(i).got(f(a)).bound(f(b))
                 );
             }
-            let n = f64::from(self.stop_ticks);
-            let over =
-                first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.001, |j| f64::from(j.max_velocity) / n);
+            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.001, &self.stop_step);
             if let Some((i, step, bound)) = over {
                 return Err(fail("SR-7", "soft stop decelerates more than vmax/N in a tick")
                     .on(i)
@@ -1199,12 +1213,9 @@ impl<S: Scalar> Monitor<S> {
             }
         }
 
-        let hz = f64::from(self.cfg.tick_hz);
         // SR-18: in Operational the set-point moves at most vmax/tick_hz per tick.
         if st == State::Operational && prev == State::Operational {
-            let over = first_step_over(&self.cfg, &out.status.setpoint, &self.prev_setpoint, 1.001, |j| {
-                f64::from(j.max_velocity) / hz
-            });
+            let over = first_step_over(&out.status.setpoint, &self.prev_setpoint, 1.001, &self.vel_per_tick);
             if let Some((i, step, bound)) = over {
                 return Err(fail("SR-18", "set-point stepped more than vmax/tick_hz").on(i).got(step).bound(bound));
             }
@@ -1309,21 +1320,18 @@ impl<S: Scalar> Monitor<S> {
         // faulted (HomingTravel) by that tick.
         match (st, phases) {
             (State::Homing, Some(ph)) => {
-                for (i, (((p, last), origin), (x, j))) in ph
+                let travel = self.fast_seek_travel.iter().zip(self.phase_travel.iter());
+                for (i, (((p, last), origin), (x, (fast, other)))) in ph
                     .iter()
                     .zip(self.home_phase.iter())
                     .zip(self.home_origin.iter_mut())
-                    .zip(out.status.position.iter().zip(cfg_joints(&self.cfg)))
+                    .zip(out.status.position.iter().zip(travel))
                     .enumerate()
                 {
                     if *p != *last || prev != State::Homing {
                         *origin = f(*x);
                     } else if p.is_moving() {
-                        let bound = f64::from(if *p == Phase::FastSeek {
-                            j.homing.max_travel
-                        } else {
-                            j.homing_phase_travel()
-                        });
+                        let bound = if *p == Phase::FastSeek { *fast } else { *other };
                         let d = (f(*x) - *origin).abs();
                         ensure!(
                             d <= bound * 1.0001 + 1e-5,
@@ -1345,9 +1353,7 @@ impl<S: Scalar> Monitor<S> {
         // Fault state's, SR-4). Its first tick may add the holding speed
         // (`HOLD_SPEED`) of an arm at rest in Operational.
         if st == State::Operational {
-            let over = first_step_over(&self.cfg, &out.act.velocity, &self.prev_out, 1.0001, |j| {
-                f64::from(j.max_acceleration) / hz
-            });
+            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.0001, &self.acc_per_tick);
             if let Some((i, dv, bound)) = over {
                 return Err(fail("SR-25", "output stepped more than max_acceleration/tick_hz")
                     .on(i)
@@ -1356,10 +1362,10 @@ impl<S: Scalar> Monitor<S> {
             }
         }
         if st == State::Homing {
-            for (i, ((a, b), j)) in
-                out.act.velocity.iter().zip(self.prev_out.iter()).zip(cfg_joints(&self.cfg)).enumerate()
+            for (i, ((a, b), dv)) in
+                out.act.velocity.iter().zip(self.prev_out.iter()).zip(self.acc_per_tick.iter()).enumerate()
             {
-                let (step, bound) = ((f(*a) - f(*b)).abs(), f64::from(j.max_acceleration) / hz);
+                let (step, bound) = ((f(*a) - f(*b)).abs(), *dv);
                 let at_switch = *a == S::ZERO && sense.limits & bit(i) != 0;
                 // Homing starts from rest, and rest allows a holding output.
                 let from_rest = if prev == State::Homing { 0.0 } else { HOLD_SPEED };
@@ -1437,9 +1443,9 @@ impl<S: Scalar> Monitor<S> {
         let axes = vel
             .iter_mut()
             .zip(sp.iter().zip(self.prev_setpoint.iter()))
-            .zip(self.cfg.joints.iter().zip(self.anchor.iter()))
+            .zip(self.cfg.joints.iter().zip(self.anchor.iter().zip(self.acc_per_tick.iter())))
             .zip(self.rest_ticks.iter_mut().zip(self.reach.iter_mut()));
-        for (i, (((v, (a, b)), (j, anchor)), (rest, reach))) in axes.enumerate() {
+        for (i, (((v, (a, b)), (j, (anchor, dv))), (rest, reach))) in axes.enumerate() {
             let (a, b) = (*a, *b);
             let (fa, fb) = (f(a), f(b));
             *v = (fa - fb) * hz;
@@ -1450,7 +1456,7 @@ impl<S: Scalar> Monitor<S> {
                 still = false;
             }
             let amax = f64::from(j.max_acceleration);
-            let dv = amax / hz;
+            let dv = *dv;
             let ulp = ulp_f32(fa.abs().max(fb.abs())).max(FX_LSB);
             let tol = 1e-5 + 2.0 * ulp;
             let pv = prev_vel.and_then(|p| p.get(i).copied());
@@ -1555,18 +1561,17 @@ impl<S: Scalar> Monitor<S> {
 }
 
 /// The first axis whose value moved between two ticks by more than its
-/// per-tick bound `limit(joint)` (times `rel`, plus 1e-6 of slack; a NaN
+/// per-tick bound `limit[axis]` (times `rel`, plus 1e-6 of slack; a NaN
 /// step is over): (axis, step, bound).
 fn first_step_over<S: Scalar>(
-    cfg: &ArmConfig,
     now: &[S; AXES],
     before: &[S; AXES],
     rel: f64,
-    limit: impl Fn(&kernel::config::JointConfig) -> f64,
+    limit: &[f64; AXES],
 ) -> Option<(usize, f64, f64)> {
-    for (i, ((a, b), j)) in now.iter().zip(before.iter()).zip(cfg_joints(cfg)).enumerate() {
+    for (i, ((a, b), bound)) in now.iter().zip(before.iter()).zip(limit.iter()).enumerate() {
         let step = (f(*a) - f(*b)).abs();
-        let bound = limit(j);
+        let bound = *bound;
         let within = step <= bound * rel + 1e-6;
         if !within {
             return Some((i, step, bound));

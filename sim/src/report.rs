@@ -260,9 +260,14 @@ impl Report {
         self.plot = Some(svg);
         let txt = dir.join(format!("{}.txt", self.name));
         std::fs::write(&txt, self.text()).with_context(|| format!("writing {}", txt.display()))?;
-        let mut log = String::new();
+        let mut log = String::with_capacity(self.lines.iter().map(|(_, l)| l.len() + 9).sum());
         for (t, l) in &self.lines {
-            let _ = write!(log, "{t:>7} {l}");
+            // `{t:>7} {l}`
+            let digits = t.checked_ilog10().unwrap_or(0) as usize + 1;
+            log.extend(std::iter::repeat_n(' ', 7usize.saturating_sub(digits)));
+            let _ = write!(log, "{t}");
+            log.push(' ');
+            log.push_str(l);
             if !l.ends_with('\n') {
                 log.push('\n');
             }

@@ -210,13 +210,20 @@ impl TickChecker {
         }
         self.prev = Some(now);
         for (l, &reads) in step.lines.iter().zip(driver_reads) {
-            // "nan" or "inf" in any letter case (ASCII: the line is UTF-8,
-            // whose multi-byte sequences hold no ASCII letter).
-            let has = |w: &[u8; 3]| l.as_bytes().windows(3).any(|x| x.eq_ignore_ascii_case(w));
-            if has(b"nan") || has(b"inf") {
+            // One pass over the bytes: "nan" or "inf" in any letter case
+            // (ASCII: the line is UTF-8, whose multi-byte sequences hold no
+            // ASCII letter), and bytes other than printable ASCII and `\n`.
+            let (mut nan_inf, mut printable) = (false, true);
+            let mut last3 = [0u8; 3];
+            for &b in l.as_bytes() {
+                last3 = [last3[1], last3[2], b.to_ascii_lowercase()];
+                nan_inf |= &last3 == b"nan" || &last3 == b"inf";
+                printable &= b == b'\n' || (0x20..0x7f).contains(&b);
+            }
+            if nan_inf {
                 bad.push(format!("line contains nan/inf: {}", l.trim_end()));
             }
-            if !l.bytes().all(|b| b == b'\n' || (0x20..0x7f).contains(&b)) {
+            if !printable {
                 bad.push(format!("line with non-printable bytes: {l:?}"));
             }
             let t = l.trim_start();

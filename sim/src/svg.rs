@@ -46,30 +46,31 @@ pub fn push_f1(s: &mut String, v: f64) {
         let frac = scaled - i as f64; // exact: an integer part below 2^53
         if (frac - 0.5).abs() > 1e-4 {
             let n = if frac > 0.5 { i + 1 } else { i };
-            if v.is_sign_negative() {
-                s.push('-');
+            // Sign, up to 7 integer digits, the point, one decimal.
+            let mut buf = [0u8; 10];
+            let mut k = buf.len() - 2;
+            buf[k] = b'.';
+            buf[k + 1] = b'0' + (n % 10) as u8;
+            let mut int = n / 10;
+            loop {
+                k -= 1;
+                buf[k] = b'0' + (int % 10) as u8;
+                int /= 10;
+                if int == 0 {
+                    break;
+                }
             }
-            push_u64(s, n / 10);
-            s.push('.');
-            s.push(char::from(b'0' + (n % 10) as u8));
-            return;
+            if v.is_sign_negative() {
+                k -= 1;
+                buf[k] = b'-';
+            }
+            if let Ok(t) = std::str::from_utf8(&buf[k..]) {
+                s.push_str(t);
+                return;
+            }
         }
     }
     let _ = write!(s, "{v:.1}");
-}
-
-fn push_u64(s: &mut String, mut n: u64) {
-    let mut buf = [0u8; 20];
-    let mut k = buf.len();
-    loop {
-        k -= 1;
-        buf[k] = b'0' + (n % 10) as u8;
-        n /= 10;
-        if n == 0 {
-            break;
-        }
-    }
-    s.extend(buf[k..].iter().map(|b| char::from(*b)));
 }
 
 fn esc(s: &str) -> String {
