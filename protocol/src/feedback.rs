@@ -46,7 +46,72 @@ pub const fn state_byte(state: State) -> u8 {
 
 fn push_value<S: Scalar>(out: &mut Line, v: S, d: Dialect) -> Result<(), Full> {
     push_byte(out, b',')?;
-    push_scaled(out, v.to_scaled_int(d.scale()), d.decimals())
+    push_scaled(out, scaled(v, d), d.decimals())
+}
+
+/// `v.to_scaled_int(d.scale())`, for `f32` computed by [`f32_scaled`] with
+/// integer arithmetic only (the same value: no soft `f64` in the image's
+/// feedback path); the type test is resolved at compile time.
+fn scaled<S: Scalar>(v: S, d: Dialect) -> i64 {
+    if core::any::TypeId::of::<S>() == core::any::TypeId::of::<f32>() {
+        // `to_f32` is the identity for `f32`.
+        f32_scaled(
+            v.to_f32(),
+            match d {
+                Dialect::Driver => 1_000,
+                Dialect::Configurator => 10_000,
+            },
+        )
+    } else {
+        v.to_scaled_int(d.scale())
+    }
+}
+
+/// `round(x * scale)` with ties away from zero, saturating to `i64`, NaN
+/// 0: exactly `f32::to_scaled_int` (which computes it in `f64`, exactly:
+/// the product has at most 24 + 32 significant bits and adding 0.5 is exact
+/// below 2^52, an integer above), with integer arithmetic on the bits: the
+/// value is `m * 2^e`, so `x * scale = (m * scale) * 2^e`, and
+/// `m * scale < 2^56` fits a `u64`.
+pub fn f32_scaled(x: f32, scale: u32) -> i64 {
+    let bits = x.to_bits();
+    let negative = bits >> 31 != 0;
+    let exp = (bits >> 23) & 0xFF;
+    let frac = u64::from(bits & 0x7F_FFFF);
+    // 2^63: beyond every i64 magnitude but i64::MIN's; saturates.
+    const SAT: u64 = 1 << 63;
+    let mag = if exp == 0xFF {
+        if frac != 0 {
+            return 0; // NaN
+        }
+        SAT // infinity
+    } else {
+        let (m, e) = if exp == 0 { (frac, -149i32) } else { (frac | 1 << 23, (exp as i32).wrapping_sub(150)) };
+        let p = m.wrapping_mul(u64::from(scale)); // < 2^24 * 2^32: exact
+        if p == 0 {
+            0
+        } else if e >= 0 {
+            if e >= 63 || p >= 1u64 << (63i32.wrapping_sub(e)) {
+                SAT
+            } else {
+                p << e
+            }
+        } else {
+            let s = e.unsigned_abs();
+            if s >= 64 {
+                0 // p < 2^56 <= 2^(s - 1): below one half
+            } else {
+                // floor(p / 2^s + 1/2); p + 2^(s - 1) < 2^56 + 2^62
+                p.wrapping_add(1u64 << s.wrapping_sub(1)) >> s
+            }
+        }
+    };
+    match (i64::try_from(mag), negative) {
+        (Ok(m), false) => m,
+        (Ok(m), true) => m.wrapping_neg(), // m <= i64::MAX
+        (Err(_), false) => i64::MAX,
+        (Err(_), true) => i64::MIN,
+    }
 }
 
 /// The driver's feedback line for `status`, acknowledging `seq`, `\n`-terminated.
@@ -139,6 +204,43 @@ impl FeedbackDivider {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `f32_scaled` equals the kernel's `f32::to_scaled_int` (the f64
+    /// method) on every exponent with edge and pseudo-random mantissas, both
+    /// signs, both dialects' scales, and the special values. (The whole f32
+    /// domain was compared once, for both scales, outside the test suite.)
+    #[test]
+    fn f32_scaled_equals_to_scaled_int() {
+        let check = |bits: u32| {
+            let x = f32::from_bits(bits);
+            for scale in [1_000u32, 10_000] {
+                assert_eq!(f32_scaled(x, scale), x.to_scaled_int(i64::from(scale)), "{x:e} ({bits:#x}) x {scale}");
+            }
+        };
+        let mut r = 0x9E37_79B9u32;
+        for exp in 0u32..=0xFF {
+            for frac in [0u32, 1, 2, 0x40_0000, 0x40_0001, 0x7F_FFFE, 0x7F_FFFF] {
+                for sign in [0u32, 1 << 31] {
+                    check(sign | exp << 23 | frac);
+                }
+            }
+            for _ in 0..2_000 {
+                r ^= r << 13;
+                r ^= r >> 17;
+                r ^= r << 5;
+                check((r & 0x807F_FFFF) | exp << 23);
+            }
+        }
+        // exact halves and their neighbours at the printed resolution
+        for k in -100_000i32..=100_000 {
+            for scale in [1_000.0f32, 10_000.0] {
+                let x = (k as f32 + 0.5) / scale;
+                for b in [x.to_bits().wrapping_sub(1), x.to_bits(), x.to_bits().wrapping_add(1)] {
+                    check(b);
+                }
+            }
+        }
+    }
 
     #[test]
     fn divider() {
