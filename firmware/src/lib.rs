@@ -132,6 +132,18 @@ pub fn boot_fault(panic_marker: u32, watchdog_reset: bool, encoder_fail_mask: u8
     }
 }
 
+/// The boot fault as one byte for the boot log line (no `core::fmt` in the
+/// image): 0 none, the [`code`] of a self-test fault, `0xF0 | axis` a driver
+/// fault, `0xFF` a tick overrun (the last two never occur at boot).
+pub const fn boot_fault_log_code(fault: Option<HardwareFault>) -> u8 {
+    match fault {
+        None => 0,
+        Some(HardwareFault::SelfTest(c)) => c,
+        Some(HardwareFault::Driver { axis }) => 0xF0 | (axis & 0x0F),
+        Some(HardwareFault::TickOverrun) => 0xFF,
+    }
+}
+
 /// Which axes failed the boot self-test: an axis passes if the last of its
 /// readings is a count.
 pub fn encoder_self_test(last: &[EncoderReading; AXES]) -> u8 {
@@ -239,6 +251,16 @@ mod tests {
         assert_eq!(boot_fault(1, true, 0x3F), Some(HardwareFault::SelfTest(code::WATCHDOG_RESET)));
         assert_eq!(boot_fault(0, false, 0b10_0001), Some(HardwareFault::SelfTest(0x40 | 0b10_0001)));
         assert_eq!(boot_fault(0, false, 0xC0), None);
+    }
+
+    #[test]
+    fn boot_fault_log_codes() {
+        assert_eq!(boot_fault_log_code(None), 0);
+        assert_eq!(boot_fault_log_code(boot_fault(PANIC_MARKER, false, 0)), 0x80);
+        assert_eq!(boot_fault_log_code(boot_fault(0, true, 0)), 0x81);
+        assert_eq!(boot_fault_log_code(boot_fault(0, false, 0b101)), 0x45);
+        assert_eq!(boot_fault_log_code(Some(HardwareFault::Driver { axis: 3 })), 0xF3);
+        assert_eq!(boot_fault_log_code(Some(HardwareFault::TickOverrun)), 0xFF);
     }
 
     #[test]
