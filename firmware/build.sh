@@ -36,9 +36,20 @@ if rustup run nightly rustc -V >/dev/null 2>&1 || rustup toolchain install night
   rustup target add --toolchain nightly "$TARGET" >/dev/null 2>&1 && HAVE_NIGHTLY=1
 fi
 
+# Image-only profile settings (issue 14, image size): code that runs only in
+# the main loop or at boot -- the USB stack and every other dependency from
+# outside the workspace, and the protocol crate's line formatting -- is
+# optimised for size; the crates the tick's code is generated in (firmware:
+# the PIT handler, the root and the kernel's monomorphised tick; hal-imxrt:
+# encoder decode, capture, step conversion; kernel) stay at the release
+# profile's opt-level 3. Passed on the command line, not in Cargo.toml, so the
+# host's release builds (the simulator) are unchanged.
+IMAGE_PROFILE=(--config 'profile.release.package."*".opt-level="z"'
+               --config 'profile.release.package.protocol.opt-level="z"')
+
 build() { # $1 = workspace root, $2 = target dir
   (cd "$1" && CARGO_TARGET_DIR="$2" RUSTFLAGS="--remap-path-prefix=$1=/parol6" \
-     cargo +"$TC" build --locked --release -p firmware --bin parol6 --target "$TARGET" \
+     cargo +"$TC" build --locked --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
        ${FEATURES:+--features "$FEATURES"})
 }
 
@@ -95,7 +106,7 @@ STACK_ELF=""
 if [ "$HAVE_NIGHTLY" = 1 ]; then
   SDIR="$CARGO_TARGET_DIR/stack-sizes"
   if CARGO_TARGET_DIR="$SDIR" RUSTFLAGS="-Z emit-stack-sizes" \
-       cargo +nightly build --release -p firmware --bin parol6 --target "$TARGET" \
+       cargo +nightly build --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
          ${FEATURES:+--features "$FEATURES"} >/dev/null 2>"$OUT/stack-build.log"; then
     STACK_ELF="$SDIR/$TARGET/release/parol6"
   else
