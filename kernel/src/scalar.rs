@@ -115,9 +115,10 @@ pub trait Scalar: Copy + PartialEq + PartialOrd + core::fmt::Debug + Send + Sync
     /// The protocol's numbers have a fixed count of decimals (3 or 4): the
     /// parser gathers their digits into an integer and converts it here. The
     /// default writes the text and calls `parse_decimal`; `f32` and [`Fx`]
-    /// compute the same value with integer arithmetic (and, for `f32`, one
-    /// exactly rounded division), checked against `parse_decimal` for every
-    /// mantissa the protocol's fields can carry
+    /// compute the same value with integer arithmetic (`f32`: one exactly
+    /// rounded division for mantissas up to 2^24, integer rounding above;
+    /// `Fx` with decimals up to 5), checked against `parse_decimal` for every
+    /// mantissa the protocol's fields can carry, and sampled for every `u32`
     /// (`protocol/tests/decimal_exhaustive.rs`).
     fn from_decimal(negative: bool, mantissa: u32, decimals: u32) -> Option<Self> {
         let mut buf = [0u8; DECIMAL_TEXT_CAP];
@@ -304,18 +305,64 @@ impl Scalar for f32 {
         // text parser does. The protocol's accepted values are far below
         // the bound (|v| < 7 rad, mantissa < 70_000); a larger mantissa
         // (a value beyond every joint limit, still to be reported exactly as
-        // before) takes the text route.
+        // before) is rounded with integer arithmetic by `f32_quotient`.
         match POW10_F32.get(decimals as usize) {
             Some(&p) if mantissa <= 1 << 24 && decimals <= MAX_DECIMALS => {
                 let v = mantissa as f32 / p;
                 Some(if negative { -v } else { v })
             }
-            _ => {
-                let mut buf = [0u8; DECIMAL_TEXT_CAP];
-                Self::parse_decimal(decimal_text(&mut buf, negative, mantissa, decimals)?)
-            }
+            _ => f32_from_large_decimal(negative, mantissa, decimals),
         }
     }
+}
+
+/// `10^k` for `k = 0..=MAX_DECIMALS`.
+const POW10_U64: [u64; MAX_DECIMALS as usize + 1] =
+    [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
+
+/// [`Scalar::from_decimal`] for `f32` off its division path (out of line:
+/// no accepted frame takes it).
+#[inline(never)]
+fn f32_from_large_decimal(negative: bool, mantissa: u32, decimals: u32) -> Option<f32> {
+    if decimals > MAX_DECIMALS {
+        return None;
+    }
+    let v = f32_quotient(mantissa, decimals);
+    Some(if negative { -v } else { v })
+}
+
+/// `m / 10^k` correctly rounded to the nearest `f32` (ties to even), with
+/// integer arithmetic only, for `m > 0` and `k <= MAX_DECIMALS` (else 0).
+///
+/// `n = m 2^(31+z)` (`z` = leading zeros of `m`) is `m` normalised to
+/// `2^62 <= n < 2^63`; `q = n div 10^k` has at least 33 significant bits
+/// and `r = n mod 10^k` is what lies below them. The exact value is
+/// `(q + r / 10^k) 2^-(31+z)`: keeping `q`'s top 24 bits and rounding on the
+/// bits dropped (a half exactly only if they are `100..0` and `r` is 0)
+/// gives a significand `s <= 2^24`, exact in `f32`, and `s 2^e` with
+/// `-53 <= e <= 8` is a normal `f32`, so the product below is exact too.
+fn f32_quotient(m: u32, k: u32) -> f32 {
+    let (Some(&p), false) = (POW10_U64.get(k as usize), m == 0) else {
+        return 0.0;
+    };
+    let z = m.leading_zeros(); // 0..=31 (m > 0)
+    let n = u64::from(m).wrapping_shl(z.wrapping_add(31)); // 2^62 <= n < 2^63
+    let (Some(q), Some(r)) = (n.checked_div(p), n.checked_rem(p)) else {
+        return 0.0;
+    };
+    // q >= 2^62 / 10^9 > 2^32: 33 to 63 significant bits, of which `shift`
+    // (9..=39) are dropped.
+    let shift = 40u32.wrapping_sub(q.leading_zeros());
+    let kept = q.wrapping_shr(shift);
+    let dropped = q & 1u64.wrapping_shl(shift).wrapping_sub(1);
+    let half = 1u64.wrapping_shl(shift.wrapping_sub(1));
+    let up = dropped > half || (dropped == half && (r != 0 || kept & 1 == 1));
+    // At most 2^24: exact in f32.
+    let significand = kept.wrapping_add(u64::from(up)) as f32;
+    // 2^e with e = shift - 31 - z in -53..=8, from its bits (biased
+    // exponent 127 + e in 74..=135).
+    let biased = 96u32.wrapping_add(shift).wrapping_sub(z);
+    significand * f32::from_bits(biased.wrapping_shl(23))
 }
 
 /// Fractional bits of [`Fx`].

@@ -10,7 +10,8 @@
 //!
 //! - **conversion**: every mantissa `m` of `(-1)^s m / 10^k` for `k` = 3 and
 //!   4 (the dialects) and both signs, `f32` for `m` in `0..=2^24 + 2^20` (the
-//!   whole fast path, `m <= 2^24`, and the start of the text fallback),
+//!   whole division path, `m <= 2^24`, and the start of the integer
+//!   rounding above it), then every 127th `m` up to `u32::MAX`,
 //!   `Fx` for `m` up to `129 * 10^k` (every value it can hold, and past its
 //!   range) and for every `k` in 0..=5; other `k` and larger `m` sampled;
 //! - **parser**: every value of every field of both dialects, both scalar
@@ -64,6 +65,13 @@ fn conversion_all(stride: usize) -> u64 {
     }
     for k in (0..=9).filter(|k| *k != 3 && *k != 4) {
         n += conversion::<f32>(k, (0..=(1u32 << 24) + (1 << 20)).step_by(stride * 97));
+    }
+    // f32 above 2^24 (integer rounding, no division in f32): every 127th
+    // mantissa up to u32::MAX for the dialects' decimals, every 1009th for
+    // the others.
+    for k in 0..=9 {
+        let step = if k == 3 || k == 4 { 127 } else { 1009 };
+        n += conversion::<f32>(k, ((1u32 << 24) + (1 << 20)..=u32::MAX).step_by(stride * step));
     }
     for k in 0..=5u32 {
         let top = 129 * 10u32.pow(k);
