@@ -263,11 +263,55 @@ impl Encoder {
         }
     }
 
+    /// [`Encoder::read`] as first written (a pass over the frames per
+    /// question), the reference the one-pass read is tested against.
+    #[cfg(test)]
+    fn read_reference(&mut self, t_now: f64) -> Snapshot {
+        let t_prev = self.last_sample;
+        let horizon = t_now + SNAPSHOT_CYCLES;
+        let (prev_edge, now_edge) = (self.last_sample_edge, edge_index(t_now));
+        if self.line == Line::Ok {
+            for f in self.frames.iter().filter(|f| f.start > t_prev && f.start <= t_now) {
+                self.capt = self.gated.wrapping_add(self.high_ticks(prev_edge, f.start_edge)) as u16;
+                self.ief = true;
+            }
+        }
+        self.gated = self.gated.wrapping_add(self.high_ticks(prev_edge, now_edge));
+        self.last_sample = t_now;
+        self.last_sample_edge = now_edge;
+        let input_high = self.pin_high(t_now);
+        let edge_during_read = self.line == Line::Ok
+            && self
+                .frames
+                .iter()
+                .any(|f| (f.start > t_now && f.start <= horizon) || (f.high_end > t_now && f.high_end <= horizon));
+        let s = Snapshot {
+            ief: self.ief,
+            input_high,
+            capt: self.capt,
+            cntr: self.gated as u16,
+            cycles: round_i64(t_now) as u64 as u32,
+            consistent: !edge_during_read,
+        };
+        self.ief = false;
+        while self.frames.front().is_some_and(|f| f.high_end <= t_now) {
+            self.frames.pop_front();
+        }
+        s
+    }
+
     /// Advances the signal to `t_now` (CPU cycles) and reads the channel as
     /// the firmware does (then clears `IEF`). The motor angle, in counts
     /// (continuous, unwrapped), is `c_prev` at the previous read and `c_now`
     /// at `t_now`, linear in between.
     pub fn sample(&mut self, t_now: f64, c_prev: f64, c_now: f64, rng: &mut Rng) -> Snapshot {
+        self.generate(t_now, c_prev, c_now, rng);
+        self.read(t_now)
+    }
+
+    /// Step 1 of [`Encoder::sample`]: the frames that start before the end
+    /// of the read at `t_now`.
+    fn generate(&mut self, t_now: f64, c_prev: f64, c_now: f64, rng: &mut Rng) {
         let t_prev = self.last_sample;
         let angle_at = |t: f64| -> f64 {
             if t_now > t_prev {
@@ -302,25 +346,46 @@ impl Encoder {
         // Frames whose HIGH time ended by the previous read were dropped at
         // its end, below: they count nothing, raise no edge and are no
         // longer the pin's level.)
+    }
+
+    /// Steps 2 to 4 of [`Encoder::sample`], once the frames up to the end of
+    /// the read are known.
+    fn read(&mut self, t_now: f64) -> Snapshot {
+        let t_prev = self.last_sample;
+        let horizon = t_now + SNAPSHOT_CYCLES;
         // 2. Rising edges in (t_prev, t_now]: CAPT := counter at the edge.
-        let (prev_edge, now_edge) = (self.last_sample_edge, edge_index(t_now));
-        if self.line == Line::Ok {
-            for f in self.frames.iter().filter(|f| f.start > t_prev && f.start <= t_now) {
-                self.capt = self.gated.wrapping_add(self.high_ticks(prev_edge, f.start_edge)) as u16;
-                self.ief = true;
-            }
-        }
         // 3. The gated counter at t_now.
-        self.gated = self.gated.wrapping_add(self.high_ticks(prev_edge, now_edge));
+        // 4. The read: SCTRL, CAPT, CNTR + CYCCNT, clear IEF, SCTRL again.
+        let (prev_edge, now_edge) = (self.last_sample_edge, edge_index(t_now));
+        let (input_high, edge_during_read) = match self.line {
+            Line::Ok => {
+                // One pass over the frames (oldest first). A frame's HIGH
+                // time ends before the next frame starts, so at a frame's
+                // rising edge the counter has gained exactly what the frames
+                // before it gained since `t_prev` (`high`), and nothing from
+                // it or later ones.
+                let mut high = 0u64;
+                let (mut input_high, mut edge_during_read) = (false, false);
+                for f in self.frames.iter() {
+                    if f.start > t_prev && f.start <= t_now {
+                        self.capt = self.gated.wrapping_add(high) as u16;
+                        self.ief = true;
+                    }
+                    high += edges(f.start_edge.max(prev_edge), f.high_end_edge.min(now_edge));
+                    input_high |= f.start <= t_now && t_now < f.high_end;
+                    edge_during_read |=
+                        (f.start > t_now && f.start <= horizon) || (f.high_end > t_now && f.high_end <= horizon);
+                }
+                self.gated = self.gated.wrapping_add(high);
+                (input_high, edge_during_read)
+            }
+            Line::StuckLow | Line::StuckHigh => {
+                self.gated = self.gated.wrapping_add(self.high_ticks(prev_edge, now_edge));
+                (self.pin_high(t_now), false)
+            }
+        };
         self.last_sample = t_now;
         self.last_sample_edge = now_edge;
-        // 4. The read: SCTRL, CAPT, CNTR + CYCCNT, clear IEF, SCTRL again.
-        let input_high = self.pin_high(t_now);
-        let edge_during_read = self.line == Line::Ok
-            && self
-                .frames
-                .iter()
-                .any(|f| (f.start > t_now && f.start <= horizon) || (f.high_end > t_now && f.high_end <= horizon));
         let s = Snapshot {
             ief: self.ief,
             input_high,
@@ -376,6 +441,42 @@ mod tests {
         assert!(counts.iter().any(|c| *c > 4000) && counts.iter().any(|c| *c < 400));
         for w in counts.windows(2) {
             assert!(hal_imxrt::pure::encoder::circular_distance(w[0], w[1]) <= 45, "{w:?}");
+        }
+    }
+
+    /// The one-pass read equals the reference read (a pass per question)
+    /// at every sample: moving and resting angles across the wrap, noise,
+    /// glitches, stuck lines, clock errors, jittered sampling.
+    #[test]
+    fn one_pass_read_equals_the_reference() {
+        let mut rng = Rng::new(11);
+        for k in 0..24 {
+            let mut e = Encoder::new(rng.uniform(), (rng.uniform() - 0.5) * 400.0, 0.5 * (k % 3) as f64);
+            let mut draws = Rng::new(100 + k);
+            let mut noise = Rng::new(200 + k);
+            let (mut c, mut v) = (rng.uniform() * 4096.0, 0.0);
+            for tick in 1..20_000u64 {
+                let t = tick as f64 * 600_000.0 + (draws.uniform() * 2.0 - 1.0) * 600.0;
+                let prev = c;
+                if draws.uniform() < 0.01 {
+                    v = (draws.uniform() - 0.5) * 80.0;
+                }
+                c += v;
+                if draws.uniform() < 0.002 {
+                    e.glitch = Some(((draws.uniform() * 600.0) as i32 - 300, 1 + (draws.uniform() * 6.0) as u32));
+                }
+                if draws.uniform() < 0.001 {
+                    e.line = [Line::Ok, Line::StuckLow, Line::StuckHigh][(draws.uniform() * 3.0) as usize % 3];
+                }
+                if draws.uniform() < 0.002 {
+                    e.line = Line::Ok;
+                }
+                e.generate(t, prev, c, &mut noise);
+                let mut r = e.clone();
+                let (got, want) = (e.read(t), r.read_reference(t));
+                assert_eq!(got, want, "encoder {k}, tick {tick}");
+                assert_eq!((e.gated, e.capt, e.ief), (r.gated, r.capt, r.ief), "encoder {k}, tick {tick}");
+            }
         }
     }
 
