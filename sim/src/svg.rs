@@ -64,10 +64,9 @@ pub fn push_f1(s: &mut String, v: f64) {
                 k -= 1;
                 buf[k] = b'-';
             }
-            if let Ok(t) = std::str::from_utf8(&buf[k..]) {
-                s.push_str(t);
-                return;
-            }
+            // (Byte by byte: a call to copy a few bytes costs more.)
+            s.extend(buf[k..].iter().map(|b| char::from(*b)));
+            return;
         }
     }
     let _ = write!(s, "{v:.1}");
@@ -101,15 +100,33 @@ pub fn plot(r: &Report) -> String {
     let t1 = (tr[tr.len() - 1].t as f64).max(t0 + 1.0);
     let pw = W - LEFT - RIGHT;
     let x = |t: u64| LEFT + (t as f64 - t0) / (t1 - t0) * pw;
+    // Each panel's range: the least and largest angle (true or set-point)
+    // and the largest speed, all six panels in one pass over the trace, in
+    // f32 (the samples' own type: `f64::from` is exact and monotonic, so
+    // the extremes are the same values). Plain comparisons skip NaN as
+    // `min`/`max` do; they may keep the other zero of +-0, which the panel
+    // never shows (a zero extreme is padded or widened before use).
+    let (mut lo32, mut hi32, mut v32) = ([f32::INFINITY; AXES], [f32::NEG_INFINITY; AXES], [0.0f32; AXES]);
+    let lower = |a: f32, b: f32| if b < a { b } else { a };
+    let upper = |a: f32, b: f32| if b > a { b } else { a };
+    // The state strip's runs of one state (first, last index), found in the
+    // same pass over the trace (it is large: one pass, not two).
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (k, smp) in tr.iter().enumerate() {
+        match runs.last_mut() {
+            Some(r) if tr[r.1].state == smp.state => r.1 = k,
+            _ => runs.push((k, k)),
+        }
+        for j in 0..AXES {
+            lo32[j] = lower(lower(lo32[j], smp.q[j]), smp.sp[j]);
+            hi32[j] = upper(upper(hi32[j], smp.q[j]), smp.sp[j]);
+            v32[j] = upper(v32[j], smp.v[j].abs());
+        }
+    }
     // State strip.
     let y0 = 60.0;
-    let mut k = 0;
-    while k < tr.len() {
+    for &(k, e) in &runs {
         let st = tr[k].state;
-        let mut e = k;
-        while e + 1 < tr.len() && tr[e + 1].state == st {
-            e += 1;
-        }
         let (xa, xb) = (x(tr[k].t), x(tr[e].t + 1));
         let _ = writeln!(
             s,
@@ -119,7 +136,6 @@ pub fn plot(r: &Report) -> String {
             tr[k].t,
             tr[e].t
         );
-        k = e + 1;
     }
     let _ = writeln!(s, r#"<text x="5" y="{}">state</text>"#, y0 + 15.0);
     let mut lx = LEFT;
@@ -170,18 +186,9 @@ pub fn plot(r: &Report) -> String {
             t
         })
         .collect();
-    // Each panel's range, all six in one pass over the trace (per joint
-    // the same values in the same order as one pass per panel).
-    let mut range = [(f64::MAX, f64::MIN, 1e-3f64); AXES];
-    for smp in tr {
-        for (j, (lo, hi, vmax)) in range.iter_mut().enumerate() {
-            for v in [smp.q[j], smp.sp[j]] {
-                *lo = lo.min(f64::from(v));
-                *hi = hi.max(f64::from(v));
-            }
-            *vmax = vmax.max(f64::from(smp.v[j]).abs());
-        }
-    }
+    let range: [(f64, f64, f64); AXES] = core::array::from_fn(|j| {
+        (f64::MAX.min(f64::from(lo32[j])), f64::MIN.max(f64::from(hi32[j])), 1e-3f64.max(f64::from(v32[j])))
+    });
     for (j, &(mut lo, mut hi, vmax)) in range.iter().enumerate() {
         let top = y0 + STRIP_H + 30.0 + j as f64 * (PANEL_H + GAP);
         if hi - lo < 1e-3 {
