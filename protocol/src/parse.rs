@@ -487,6 +487,51 @@ fn well_formed<S: Scalar>(rest: &[u8]) -> Option<(u32, Dialect, [S; MOTION_FIELD
     Some((seq, dialect, values))
 }
 
+/// `f32`'s overflow threshold, `2^128 - 2^103` (half way from `f32::MAX` to
+/// `2^128`, which rounds up): a decimal at least this large is not finite
+/// in `f32` (core's parser gives infinity) and beyond [`kernel::Fx`] too.
+const OVERFLOW: &[u8; 39] = b"340282356779733661637539395458142568448";
+
+/// The value of a number of more than [`MAX_DIGITS`] digits, `text` =
+/// `-?[0-9]+\.[0-9]{3,4}` (its syntax and decimals checked), as
+/// [`Scalar::parse_decimal`] of the text decides it, without a text parser:
+///
+/// - leading zeros of the integer part do not count: with at most
+///   [`MAX_DIGITS`] digits left, the number goes to [`Scalar::from_decimal`]
+///   like any other (exact);
+/// - otherwise the integer part has at least 6 significant digits, so
+///   `|value| >= 10^5`: at or beyond [`OVERFLOW`] it fits no scalar
+///   (`None`, as `parse_decimal` gives); below it `from_decimal` of
+///   `±99999.9999` stands in for it. Both are beyond every joint limit a
+///   [`Validated`] configuration can hold (|position| < 30 rad,
+///   |velocity| <= 16 rad/s; checked below), so the target is rejected
+///   with the same error as with the exact value: the value itself is
+///   never part of an accepted command. (For [`kernel::Fx`], range
+///   [-128, 128), both are `None`.)
+fn long_number<S: Scalar>(text: &[u8]) -> Option<S> {
+    let (negative, digits) = take_sign(text);
+    let mut parts = digits.splitn(2, |&b| b == b'.');
+    let int = parts.next().unwrap_or_default();
+    let fraction = parts.next().unwrap_or_default();
+    let significant = int.iter().position(|&b| b != b'0').and_then(|i| int.get(i..)).unwrap_or_default();
+    let decimals = fraction.len() as u32;
+    if significant.len().saturating_add(fraction.len()) <= MAX_DIGITS {
+        let (mantissa, _, _) = take_digits(significant, 0);
+        let (mantissa, _, _) = take_digits(fraction, mantissa);
+        return S::from_decimal(negative, mantissa, decimals);
+    }
+    if significant.len() > OVERFLOW.len() || (significant.len() == OVERFLOW.len() && significant >= OVERFLOW.as_slice())
+    {
+        return None;
+    }
+    S::from_decimal(negative, 999_999_999, 4)
+}
+
+// The stand-in of `long_number` is beyond every joint limit of a validated
+// configuration (`kernel::config::check`: limits within
+// `POSITION_ABS_MAX - 2`, velocities at most 16 rad/s).
+const _: () = assert!(kernel::config::POSITION_ABS_MAX < 99_999.0);
+
 /// A converted value, or why it is rejected.
 #[inline(always)]
 fn checked<S: Scalar>(field: usize, v: Option<S>) -> Result<S, ParseError> {
@@ -614,11 +659,7 @@ impl<S: Scalar> Parser<S> {
         let value = |field: usize| {
             let n = nums.get(field).copied().unwrap_or_default();
             let v = if n.mantissa == u32::MAX {
-                // More than 9 digits (beyond every limit unless padded with
-                // zeros): the text parser's verdict, whatever it is.
-                let text = fields.get(field).map_or(&[][..], |f| f.text(body));
-                let text = core::str::from_utf8(text).map_err(|_| ParseError::NonNumeric { field: sat_u8(field) })?;
-                S::parse_decimal(text)
+                long_number(fields.get(field).map_or(&[][..], |f| f.text(body)))
             } else {
                 // Exactly `parse_decimal` of the text (`Scalar::from_decimal`).
                 S::from_decimal(n.negative, n.mantissa, dialect.decimals() as u32)
