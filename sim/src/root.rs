@@ -72,7 +72,11 @@ impl TickBoard for SimBoard {
     fn cycles(&self) -> u32 {
         // The host's own time at 600 MHz: the tick duration on the
         // configurator line is the simulator's, not the Teensy's.
-        (self.started.elapsed().as_nanos() * 3 / 5) as u32
+        // (In u64: the same value as `as_nanos() * 3 / 5` in u128 for the
+        // first 195 years of a run, without 128-bit arithmetic per tick.)
+        let d = self.started.elapsed();
+        let ns = d.as_secs().wrapping_mul(1_000_000_000).wrapping_add(u64::from(d.subsec_nanos()));
+        (ns.wrapping_mul(3) / 5) as u32
     }
     fn end_of_tick(&mut self) -> bool {
         std::mem::take(&mut self.overrun)
