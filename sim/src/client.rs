@@ -3,12 +3,19 @@
 
 use kernel::config::AXES;
 
+use crate::numfmt::{push_fixed, push_u32};
+
 /// A driver motion line: `<SEQ,p1,v1,...,p6,v6>`, printf `%.3f` (a negative
 /// value that rounds to zero prints `-0.000`, as C does).
 pub fn driver_line(seq: u32, p: &[f64; AXES], v: &[f64; AXES]) -> String {
-    let mut s = format!("<{seq}");
-    for i in 0..AXES {
-        s.push_str(&format!(",{:.3},{:.3}", p[i], v[i]));
+    let mut s = String::with_capacity(96);
+    s.push('<');
+    push_u32(&mut s, seq);
+    for (p, v) in p.iter().zip(v.iter()) {
+        s.push(',');
+        push_fixed(&mut s, *p, 3);
+        s.push(',');
+        push_fixed(&mut s, *v, 3);
     }
     s.push_str(">\n");
     s
@@ -16,9 +23,12 @@ pub fn driver_line(seq: u32, p: &[f64; AXES], v: &[f64; AXES]) -> String {
 
 /// A configurator motion line: `<SEQ,p1..p6,v1..v6>`, Python `:.4f`.
 pub fn configurator_line(seq: u32, p: &[f64; AXES], v: &[f64; AXES]) -> String {
-    let mut s = format!("<{seq}");
+    let mut s = String::with_capacity(96);
+    s.push('<');
+    push_u32(&mut s, seq);
     for x in p.iter().chain(v.iter()) {
-        s.push_str(&format!(",{x:.4}"));
+        s.push(',');
+        push_fixed(&mut s, *x, 4);
     }
     s.push_str(">\n");
     s

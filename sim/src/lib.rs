@@ -10,6 +10,7 @@
 pub mod client;
 pub mod encoder;
 pub mod live;
+pub mod numfmt;
 pub mod plant;
 pub mod report;
 pub mod rng;

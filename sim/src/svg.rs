@@ -32,44 +32,10 @@ fn state_color(s: State) -> &'static str {
     }
 }
 
-/// Appends `v` formatted as `format!("{v:.1}")` does, byte for byte, without
-/// `core::fmt`'s exact float formatting (most of the plot's cost): the value
-/// times ten is rounded to the nearest integer where that is unambiguous
-/// (`|v| < 1e7`, so the product is within 2e-9 of the exact one, and its
-/// fraction is not within 1e-4 of one half); anything else (a tie or near
-/// one, non-finite, large) goes to `core::fmt`.
+/// Appends `v` formatted as `format!("{v:.1}")` does, byte for byte
+/// ([`crate::numfmt::push_fixed`]).
 pub fn push_f1(s: &mut String, v: f64) {
-    let a = v.abs();
-    if a < 1e7 {
-        let scaled = a * 10.0;
-        let i = scaled as u64;
-        let frac = scaled - i as f64; // exact: an integer part below 2^53
-        if (frac - 0.5).abs() > 1e-4 {
-            let n = if frac > 0.5 { i + 1 } else { i };
-            // Sign, up to 7 integer digits, the point, one decimal.
-            let mut buf = [0u8; 10];
-            let mut k = buf.len() - 2;
-            buf[k] = b'.';
-            buf[k + 1] = b'0' + (n % 10) as u8;
-            let mut int = n / 10;
-            loop {
-                k -= 1;
-                buf[k] = b'0' + (int % 10) as u8;
-                int /= 10;
-                if int == 0 {
-                    break;
-                }
-            }
-            if v.is_sign_negative() {
-                k -= 1;
-                buf[k] = b'-';
-            }
-            // (Byte by byte: a call to copy a few bytes costs more.)
-            s.extend(buf[k..].iter().map(|b| char::from(*b)));
-            return;
-        }
-    }
-    let _ = write!(s, "{v:.1}");
+    crate::numfmt::push_fixed(s, v, 1);
 }
 
 fn esc(s: &str) -> String {
