@@ -73,7 +73,10 @@ impl Frames {
 
     fn pop_front(&mut self) {
         if self.len > 0 {
-            self.buf.copy_within(1..self.len, 0);
+            // A fixed shift of the whole (small) array, not a copy of a
+            // variable length (a call to memmove per frame).
+            let [_, b, c, d] = self.buf;
+            self.buf = [b, c, d, d];
             self.len -= 1;
         }
     }
