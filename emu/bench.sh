@@ -149,7 +149,8 @@ rustc does not emit); the target code has no \`vfma\`/\`vfms\`/\`vfnma\`/\`vfnms
 disassembly) and uses \`vmla.f32\`, whose product is rounded before the addition (the chained, not
 fused, VFP multiply-accumulate: the same result as separate IEEE operations); the FPU runs with the
 reset FPSCR (round to nearest, no flush-to-zero, no default NaN) and the host uses SSE (no x87 extended
-precision); \`as\` conversions saturate on both; decimal parsing is core's software parser on both.
+precision); \`as\` conversions saturate on both; a decimal number is converted with integer arithmetic
+and, for f32, one IEEE division of two exact operands (\`Scalar::from_decimal\`) on both.
 One documented gap: \`f32::min\`/\`max\` are \`vminnm\`/\`vmaxnm\` (cm7 build), compiler-builtins
 \`fminf\`/\`fmaxf\` (generic build) and a compare/select sequence on x86-64; all implement IEEE minNum /
 maxNum, but Rust leaves the sign of \`min(+0.0, -0.0)\` unspecified, so a zero's sign could in principle
