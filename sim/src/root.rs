@@ -233,7 +233,13 @@ impl Root {
         let mut from = 0;
         while let Some(nl) = self.partial[from..].iter().position(|b| *b == b'\n') {
             let end = from + nl + 1;
-            lines.push(String::from_utf8_lossy(&self.partial[from..end]).into_owned());
+            let bytes = &self.partial[from..end];
+            // (`from_utf8_lossy` gives the same text; valid UTF-8, the usual
+            // case, is checked faster this way.)
+            lines.push(match std::str::from_utf8(bytes) {
+                Ok(t) => t.to_owned(),
+                Err(_) => String::from_utf8_lossy(bytes).into_owned(),
+            });
             from = end;
         }
         self.partial.drain(..from);
