@@ -33,6 +33,8 @@ both!(
     the_following_error_bounds_are_strict,
     an_estimate_of_exactly_32_rad_is_implausible,
     an_output_of_exactly_the_hold_speed_is_holding,
+    an_estimated_speed_of_exactly_64_rad_s_is_implausible,
+    a_homing_phase_may_travel_exactly_its_bound,
 );
 
 fn dt<S: Scalar>() -> S {
@@ -273,5 +275,73 @@ fn an_output_of_exactly_the_hold_speed_is_holding<S: Scalar>() {
         s.axes[4].last_out = S::from_f32(out);
         let (k, _) = build(&s);
         assert_eq!(k.moving(), moving, "last output {out}");
+    }
+}
+
+/// An estimate is plausible only *below* the kernel's absolute speed bound
+/// of 64 rad/s. The invariant admits no state at it, so the observer puts
+/// it there: a residual `r` with `v + beta r` exactly 64 (the zero chosen
+/// so that the reading is the prediction plus `r`). Exactly 64 is a
+/// Numeric fault; the mutant finds it plausible and reports the same
+/// tick's runaway instead. Survivor: `v.abs() < vel_abs` as `<=`.
+fn an_estimated_speed_of_exactly_64_rad_s_is_implausible<S: Scalar>() {
+    let beta_hz = S::from_f32(PAROL6.beta() * PAROL6.tick_hz as f32);
+    let top = S::from_f32(64.0);
+    for sign in [1.0f32, -1.0] {
+        let target = S::from_f32(sign * 64.0);
+        let start = (1..2000).find_map(|i| {
+            let r = S::from_f32(sign * i as f32 * 1.0e-4);
+            let v = target.minus(beta_hz.times(r));
+            let x = S::from_f32(0.1);
+            let xp = predicted(x, v);
+            let zero = xp.plus(r);
+            let exact = zero.minus(xp) == r && v.plus(beta_hz.times(r)) == target && v.abs() < top;
+            exact.then_some((x, v, zero))
+        });
+        let (x, v, zero) = start.expect("a residual that lands the speed on 64 rad/s exactly");
+        let mut s = spec::<S>(SpecMode::Unhomed);
+        s.homed = 0;
+        s.axes[3] = AxisSpec { zero, ..axis(x, v) };
+        let (mut k, _) = build(&s);
+        let out = tick(&mut k, None);
+        assert_eq!(out.status.velocity[3], target);
+        assert_eq!(fault(&out), Some(FaultReason::Numeric { axis: 3 }), "speed {}", target.to_f32());
+    }
+}
+
+/// SR-14: a homing phase that travels *farther than* its bound faults
+/// (`HOMING_TRAVEL`); exactly the bound is allowed. The fast seek's bound
+/// and the other phases' bound, on the homing state machine itself.
+/// Survivor: `x - origin > bound` as `>=`.
+fn a_homing_phase_may_travel_exactly_its_bound<S: Scalar>() {
+    use kernel::homing::{AxisHoming, HomingParams, Phase};
+    let p = HomingParams {
+        fast_toward: S::from_f32(0.5),
+        slow_toward: S::from_f32(0.1),
+        backoff: S::from_f32(0.05),
+        timeout_ticks: 10_000,
+        dv: S::from_f32(0.01),
+        max_travel: S::from_f32(1.0),
+        phase_travel: S::from_f32(0.25),
+        settle_ticks: 10,
+    };
+    let past = S::from_f32(1.0e-3);
+    // The fast seek from 0: exactly 1 rad away is inside, farther is not.
+    for (x, too_far) in [(p.max_travel, None), (p.max_travel.plus(past), Some(Phase::FastSeek))] {
+        let mut h = AxisHoming::<S>::default();
+        h.reset(true);
+        h.start(S::ZERO);
+        assert_eq!(h.phase(), Phase::FastSeek);
+        assert_eq!(h.step(false, x, &p).too_far, too_far, "fast seek at {}", x.to_f32());
+    }
+    // The back-off, entered at the switch at 0.5: 0.25 rad from there.
+    let at = S::from_f32(0.5);
+    for (x, too_far) in [(at.plus(p.phase_travel), None), (at.plus(p.phase_travel).plus(past), Some(Phase::BackOff))] {
+        let mut h = AxisHoming::<S>::default();
+        h.reset(true);
+        h.start(S::ZERO);
+        h.step(true, at, &p);
+        assert_eq!(h.phase(), Phase::BackOff);
+        assert_eq!(h.step(true, x, &p).too_far, too_far, "back-off at {}", x.to_f32());
     }
 }
