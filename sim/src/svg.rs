@@ -181,6 +181,9 @@ pub fn plot(r: &Report) -> String {
             [(2usize, "#2ca02c", 1.0, " stroke-dasharray=\"4 3\""), (0, "#1f77b4", 2.0, ""), (1, "#d62728", 1.2, "")]
         {
             let mut pts = String::with_capacity(xs.len() * 14);
+            // The text of the last y (its bits, where it is in `pts`): a
+            // joint at rest repeats its y, whose text is then copied.
+            let mut last: Option<(u64, std::ops::Range<usize>)> = None;
             for (smp, xx) in tr.iter().step_by(stride).zip(xs.iter()) {
                 let yy = match sel {
                     0 => y(f64::from(smp.q[j])),
@@ -189,7 +192,14 @@ pub fn plot(r: &Report) -> String {
                 };
                 pts.push_str(xx);
                 pts.push(',');
-                push_f1(&mut pts, yy);
+                match &last {
+                    Some((bits, r)) if *bits == yy.to_bits() => pts.extend_from_within(r.clone()),
+                    _ => {
+                        let from = pts.len();
+                        push_f1(&mut pts, yy);
+                        last = Some((yy.to_bits(), from..pts.len()));
+                    }
+                }
                 pts.push(' ');
             }
             let _ =
