@@ -540,12 +540,12 @@ impl Scalar for Fx {
         }
         let frac = r.wrapping_mul(c).wrapping_add(r.wrapping_mul(d).wrapping_add(e.get() / 2) / e);
         let mag = (q << FX_FRAC).wrapping_add(frac);
-        let bits = match (negative, mag) {
-            (false, 0..=0x7fff_ffff) => mag as i32,
-            (true, 0..=0x8000_0000) => 0i32.wrapping_sub_unsigned(mag),
-            _ => return None,
-        };
-        Some(Fx::from_bits(bits))
+        // At most 2^31 - 1, or 2^31 when negative.
+        if mag > 0x7fff_ffff_u32.wrapping_add(u32::from(negative)) {
+            return None;
+        }
+        let bits = if negative { mag.wrapping_neg() } else { mag };
+        Some(Fx::from_bits(bits as i32))
     }
 }
 

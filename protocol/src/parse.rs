@@ -375,10 +375,8 @@ fn take_digits(s: &[u8], mut acc: u32) -> (u32, usize, &[u8]) {
 /// A leading `-` of `s`, and what follows it.
 #[inline(always)]
 fn take_sign(s: &[u8]) -> (bool, &[u8]) {
-    match s {
-        [b'-', tail @ ..] => (true, tail),
-        _ => (false, s),
-    }
+    let negative = s.first() == Some(&b'-');
+    (negative, s.get(usize::from(negative)..).unwrap_or_default())
 }
 
 /// The number at the start of `s` if it is `-?[0-9]+\.[0-9]*` with at most
@@ -401,8 +399,8 @@ fn well_formed_number(s: &[u8], end: u8) -> Option<(Number, usize, &[u8])> {
 fn number_of<const K: usize>(s: &[u8], end: u8) -> Option<(Number, &[u8])> {
     let (negative, s) = take_sign(s);
     let (int, int_digits, s) = take_digits(s, 0);
-    if int_digits == 0 || int_digits > MAX_DIGITS.saturating_sub(K) {
-        return None;
+    if int_digits.wrapping_sub(1) >= MAX_DIGITS.saturating_sub(K) {
+        return None; // no integer digit (0 - 1 wraps), or more than 9 - K
     }
     let [b'.', s @ ..] = s else { return None };
     let (fraction, s) = s.split_first_chunk::<K>()?;
@@ -503,8 +501,9 @@ const OVERFLOW: &[u8; 39] = b"340282356779733661637539395458142568448";
 ///   `|value| >= 10^5`: at or beyond [`OVERFLOW`] it fits no scalar
 ///   (`None`, as `parse_decimal` gives); below it `from_decimal` of
 ///   `±99999.9999` stands in for it. Both are beyond every joint limit a
-///   [`Validated`] configuration can hold (|position| < 30 rad,
-///   |velocity| <= 16 rad/s; checked below), so the target is rejected
+///   [`Validated`] configuration can hold (`kernel::config::check`:
+///   positions within `POSITION_ABS_MAX - 2` = 30 rad, asserted below at
+///   compile time; velocities at most 16 rad/s), so the target is rejected
 ///   with the same error as with the exact value: the value itself is
 ///   never part of an accepted command. (For [`kernel::Fx`], range
 ///   [-128, 128), both are `None`.)
