@@ -376,7 +376,7 @@ fn take_digits(s: &[u8], mut acc: u32) -> (u32, usize, &[u8]) {
 #[inline(always)]
 fn take_sign(s: &[u8]) -> (bool, &[u8]) {
     let negative = s.first() == Some(&b'-');
-    (negative, s.get(usize::from(negative)..).unwrap_or_default())
+    (negative, if negative { s.get(1..).unwrap_or_default() } else { s })
 }
 
 /// The number at the start of `s` if it is `-?[0-9]+\.[0-9]*` with at most
