@@ -41,3 +41,17 @@ fn the_kernel_hash_follows_its_state_not_its_identity() {
     let (f, _) = r.k.fork();
     assert_eq!(hash_of(&f), hash_of(&r.k), "a fork is the same state");
 }
+
+/// PROTOCOL.md's status reports one limit bit per joint: bits beyond the
+/// six joints of the sensed mask (a board reporting more inputs) are not
+/// reported, the six are reported as sensed. Survivors: `limits & ALL` in
+/// `Kernel::status` as `|` and as `^`.
+#[test]
+fn the_status_reports_the_six_joints_limit_bits_as_sensed() {
+    for (sensed, reported) in [(0xffu8, 0x3fu8), (0xc0, 0), (0b0000_0101, 0b0000_0101), (0x3f, 0x3f), (0, 0)] {
+        let (k, _) = Kernel::<f32>::new(&PAROL6_VALIDATED);
+        assert_eq!(k.status(sensed).limits, reported, "sensed {sensed:#04x}");
+        let (k, _) = Kernel::<Fx>::new(&PAROL6_VALIDATED);
+        assert_eq!(k.status(sensed).limits, reported, "sensed {sensed:#04x}");
+    }
+}
