@@ -19,7 +19,7 @@
 
 mod common;
 
-use common::both;
+use common::{axis_spec as axis, both, predicted};
 use kernel::config::{AXES, HOLD_SPEED, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
 use kernel::{
     AxisSpec, EncoderSample, Event, FaultReason, Kernel, Request, Scalar, Sense, SpecMode, State, StateSpec, TickOutput,
@@ -39,31 +39,6 @@ both!(
 
 fn dt<S: Scalar>() -> S {
     S::from_f32(1.0 / PAROL6.tick_hz as f32)
-}
-
-/// The estimate after one observer step from `(x, v)` with a reading of
-/// exactly the prediction.
-fn predicted<S: Scalar>(x: S, v: S) -> S {
-    x.plus(v.times(dt()))
-}
-
-/// An axis at rest at `x` (set-point, target and path there), read with
-/// count 0 and a zero that makes the next reading `x + v dt`.
-fn axis<S: Scalar>(x: S, v: S) -> AxisSpec<S> {
-    AxisSpec {
-        count: 0,
-        zero: predicted(x, v),
-        x,
-        v,
-        setpoint: x,
-        target: x,
-        sp_velocity: S::ZERO,
-        speed: S::ZERO,
-        last_out: S::ZERO,
-        path: x,
-        fe_count: 0,
-        invalid: 0,
-    }
 }
 
 fn spec<S: Scalar>(mode: SpecMode<S>) -> StateSpec<S> {

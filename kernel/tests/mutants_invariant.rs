@@ -10,35 +10,17 @@
 
 mod common;
 
-use common::both;
+use common::{axis_spec, both};
 use kernel::config::{AXES, PAROL6_VALIDATED};
-use kernel::{AxisSpec, FaultReason, HomingStatus, Kernel, Scalar, SpecMode, State, StateSpec};
+use kernel::{FaultReason, HomingStatus, Kernel, Scalar, SpecMode, State, StateSpec};
 
 both!(a_spec_that_satisfies_the_invariant_gives_that_state, a_spec_that_breaks_the_invariant_gives_none,);
-
-fn axis<S: Scalar>(x: f32) -> AxisSpec<S> {
-    let x = S::from_f32(x);
-    AxisSpec {
-        count: 1000,
-        zero: S::ZERO,
-        x,
-        v: S::ZERO,
-        setpoint: x,
-        target: x,
-        sp_velocity: S::ZERO,
-        speed: S::ZERO,
-        last_out: S::ZERO,
-        path: x,
-        fe_count: 0,
-        invalid: 0,
-    }
-}
 
 fn spec<S: Scalar>(mode: SpecMode<S>, homed: u8) -> StateSpec<S> {
     StateSpec {
         mode,
         homed,
-        axes: core::array::from_fn(|i| axis(0.1 * i as f32)),
+        axes: core::array::from_fn(|i| axis_spec(S::from_f32(0.1 * i as f32), S::ZERO)),
         armed: false,
         since_cmd: 0,
         since_target: None,

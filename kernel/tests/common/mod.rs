@@ -144,3 +144,33 @@ macro_rules! both {
 }
 #[allow(unused_imports)]
 pub(crate) use both;
+
+/// The observer's prediction from `(x, v)` one tick ahead, in the kernel's
+/// arithmetic (`x + v dt` at the PAROL6's tick rate).
+#[cfg(feature = "proof-states")]
+pub fn predicted<S: Scalar>(x: S, v: S) -> S {
+    x.plus(v.times(S::from_f32(1.0 / kernel::config::PAROL6.tick_hz as f32)))
+}
+
+/// An axis for `Kernel::from_spec`: estimate `(x, v)`, set-point, target
+/// and path at `x`, no output; read with encoder count 0 and a homing zero
+/// equal to the observer's prediction, so the next tick's reading (count 0)
+/// is exactly `x + v dt` and the residual exactly zero: after the tick the
+/// estimate is exactly `(x + v dt, v)` (at rest: `(x, 0)`).
+#[cfg(feature = "proof-states")]
+pub fn axis_spec<S: Scalar>(x: S, v: S) -> kernel::AxisSpec<S> {
+    kernel::AxisSpec {
+        count: 0,
+        zero: predicted(x, v),
+        x,
+        v,
+        setpoint: x,
+        target: x,
+        sp_velocity: S::ZERO,
+        speed: S::ZERO,
+        last_out: S::ZERO,
+        path: x,
+        fe_count: 0,
+        invalid: 0,
+    }
+}
