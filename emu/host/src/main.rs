@@ -182,9 +182,49 @@ fn record<S: Bits>(v: &Validated) -> (Vec<u8>, u32, Vec<State>) {
         last_pos = step(&mut k, &mut plant, None, &none);
     }
     let _ = last_pos;
+    assert_eq!(states, SCENARIO_PATH, "the scenario script no longer runs as labelled");
     let mut data = header(ticks).to_vec();
     data.extend(body);
     (data, ticks, states)
+}
+
+/// The states the scenario goes through, in order (each entry a run of one
+/// or more ticks): what `record` scripts and what the benchmark's rows are
+/// labelled with. `replay` fails when the committed recording no longer
+/// follows it (a kernel change made the open-loop replay diverge: re-record
+/// with emu/record.sh), so the figures are never about a different run.
+const SCENARIO_PATH: [State; 8] = [
+    State::Unhomed,
+    State::Homing,
+    State::Operational,
+    State::Stopping,
+    State::SoftEstop,
+    State::Operational,
+    State::Fault,
+    State::Operational,
+];
+
+/// The runs of equal consecutive states.
+fn state_runs(states: &[State]) -> Vec<State> {
+    let mut runs: Vec<State> = Vec::new();
+    for s in states {
+        if runs.last() != Some(s) {
+            runs.push(*s);
+        }
+    }
+    runs
+}
+
+/// Fails unless the replayed states follow [`SCENARIO_PATH`].
+fn check_path(var: &str, states: &[State]) -> Result<(), String> {
+    let runs = state_runs(states);
+    if runs != SCENARIO_PATH {
+        return Err(format!(
+            "{var}: the recorded scenario no longer follows its script: replayed states {runs:?}, \
+             expected {SCENARIO_PATH:?} (the kernel's behaviour changed; re-record with emu/record.sh)"
+        ));
+    }
+    Ok(())
 }
 
 fn scenario_path(dir: &Path, name: &str) -> PathBuf {
@@ -220,6 +260,8 @@ fn run(args: &[String]) -> Result<(), String> {
             let fxs = read(&scenario_path(&dir, "fx"))?;
             replay::<f32, _>(&PAROL6_VALIDATED, &f32s, &mut p).map_err(|e| format!("{e:?}"))?;
             replay::<Fx, _>(&PAROL6_VALIDATED, &fxs, &mut p).map_err(|e| format!("{e:?}"))?;
+            check_path("f32", &classify::<f32>(&f32s)?.0)?;
+            check_path("fx", &classify::<Fx>(&fxs)?.0)?;
             print!("{}", p.0);
             Ok(())
         }
@@ -249,7 +291,8 @@ fn frames(data: &[u8]) -> Result<Vec<(usize, bool)>, String> {
 
 /// Replays a scenario on the host: the state after each tick, and for each
 /// frame whether the parser accepted it as a motion frame.
-fn classify<S: Bits>(data: &[u8]) -> Result<(Vec<State>, Vec<bool>), String> {
+type Classified = (Vec<State>, Vec<bool>);
+fn classify<S: Bits>(data: &[u8]) -> Result<Classified, String> {
     let mut rd = Reader::new(data).map_err(|e| format!("{e:?}"))?;
     let (mut k, authority) = Kernel::<S>::new(&PAROL6_VALIDATED);
     let parser = Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto);
@@ -332,7 +375,15 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
             return Err(format!("{var}: {} tick samples, scenario has {n_ticks} ticks", ticks.len()));
         }
         let (states, motion_ok) = if var == "f32" { classify::<f32>(data)? } else { classify::<Fx>(data)? };
+        check_path(var, &states)?;
         row(&mut out, "full six-axis tick, whole scenario", var, &ticks);
+        // The streamed trajectory: the first Operational run (after homing,
+        // until the command timeout starts the soft stop), less the tick that
+        // ended homing and the 20 ticks at rest before the stream's first frame.
+        let first_op = states.iter().position(|s| *s == State::Operational).unwrap_or(0);
+        let op_len = states[first_op..].iter().take_while(|s| **s == State::Operational).count();
+        let stream = ticks.get(first_op + 21..first_op + op_len).unwrap_or(&[]);
+        row(&mut out, "tick while following the stream (1.5 s, a frame every 10 ms)", var, stream);
         let mut seen: Vec<State> = Vec::new();
         for s in &states {
             if !seen.contains(s) {
