@@ -13,6 +13,12 @@
  * the measured code, and the call of the stop marker: a constant overhead
  * that emu-host measures with an empty region, channel "cal").
  *
+ * Optional per-address profile: prof=FILE:NAME writes "ADDRESS COUNT" for
+ * every instruction executed while mark NAME is open (between its start and
+ * stop markers), counted per translated block as it starts (a block runs to
+ * its end: the replay takes no exception inside a measured region). The stop
+ * marker's block is included; emu/bench.sh attributes addresses to functions.
+ *
  * The count is of instructions, not cycles. Instructions skipped by a Thumb
  * IT condition are counted (QEMU calls instruction hooks before the
  * condition check; the core also issues them).
@@ -42,6 +48,31 @@ static uint64_t executed;
 static FILE *out;
 static uint64_t unmatched;
 
+/* Per-address profile (prof=FILE:NAME). Addresses below PROF_SPAN, one
+ * counter per halfword (Thumb instructions are 2 or 4 bytes). */
+#define PROF_SPAN (1u << 20)
+static uint64_t *prof_count;
+static struct mark *prof_mark;
+static char prof_name[32];
+static FILE *prof_out;
+
+struct tb_addrs {
+    size_t n;
+    uint32_t va[];
+};
+
+static void on_tb_exec(unsigned int vcpu, void *ud)
+{
+    const struct tb_addrs *t = ud;
+    (void)vcpu;
+    if (!prof_mark || !prof_mark->open) {
+        return;
+    }
+    for (size_t i = 0; i < t->n; i++) {
+        prof_count[t->va[i] >> 1]++;
+    }
+}
+
 static void on_start(unsigned int vcpu, void *ud)
 {
     struct mark *m = ud;
@@ -67,6 +98,22 @@ static void on_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
 {
     size_t n = qemu_plugin_tb_n_insns(tb);
     (void)id;
+    if (prof_count && n > 0) {
+        /* Blocks are translated once and live as long as the program here
+         * (no self-modifying code), so the address list is never freed. */
+        struct tb_addrs *t = malloc(sizeof *t + n * sizeof t->va[0]);
+        size_t k = 0;
+        for (size_t i = 0; t && i < n; i++) {
+            uint64_t va = qemu_plugin_insn_vaddr(qemu_plugin_tb_get_insn(tb, i));
+            if (va < PROF_SPAN) {
+                t->va[k++] = (uint32_t)va;
+            }
+        }
+        if (t) {
+            t->n = k;
+            qemu_plugin_register_vcpu_tb_exec_cb(tb, on_tb_exec, QEMU_PLUGIN_CB_NO_REGS, t);
+        }
+    }
     for (size_t i = 0; i < n; i++) {
         struct qemu_plugin_insn *insn = qemu_plugin_tb_get_insn(tb, i);
         uint64_t va = qemu_plugin_insn_vaddr(insn);
@@ -101,6 +148,14 @@ static void on_exit_cb(qemu_plugin_id_t id, void *ud)
     if (out) {
         fflush(out);
     }
+    if (prof_out) {
+        for (uint32_t i = 0; i < PROF_SPAN / 2; i++) {
+            if (prof_count[i]) {
+                fprintf(prof_out, "%08" PRIx32 " %" PRIu64 "\n", i << 1, prof_count[i]);
+            }
+        }
+        fclose(prof_out);
+    }
 }
 
 EMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t *info, int argc, char **argv)
@@ -127,6 +182,20 @@ EMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t
             m->stop &= ~(uint64_t)1;
             memcpy(m->name, name, sizeof name);
             n_marks++;
+        } else if (strncmp(a, "prof=", 5) == 0) {
+            const char *colon = strrchr(a + 5, ':');
+            if (!colon || strlen(colon + 1) >= sizeof prof_name) {
+                fprintf(stderr, "count: bad argument %s (prof=FILE:NAME)\n", a);
+                return -1;
+            }
+            strcpy(prof_name, colon + 1);
+            char *file = strndup(a + 5, (size_t)(colon - (a + 5)));
+            prof_out = file ? fopen(file, "w") : NULL;
+            if (!prof_out) {
+                perror(file ? file : "prof");
+                return -1;
+            }
+            free(file);
         } else {
             fprintf(stderr, "count: unknown argument %s\n", a);
             return -1;
@@ -135,6 +204,18 @@ EMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t
     if (!path || n_marks == 0) {
         fprintf(stderr, "count: need out=FILE and at least one mark=NAME:START:STOP\n");
         return -1;
+    }
+    if (prof_out) {
+        for (int k = 0; k < n_marks; k++) {
+            if (strcmp(marks[k].name, prof_name) == 0) {
+                prof_mark = &marks[k];
+            }
+        }
+        prof_count = calloc(PROF_SPAN / 2, sizeof *prof_count);
+        if (!prof_mark || !prof_count) {
+            fprintf(stderr, "count: prof=...:%s names no mark (or no memory)\n", prof_name);
+            return -1;
+        }
     }
     out = fopen(path, "w");
     if (!out) {
