@@ -253,13 +253,28 @@ impl Scalar for f32 {
         // Clearing the sign bit: exact, branch-free, and NaN stays NaN.
         f32::from_bits(self.to_bits() & 0x7fff_ffff)
     }
+    // IEEE minNum / maxNum written out as a compare and a select, not
+    // `f32::min`/`max`: on the shipped FPv4-SP build those are calls to
+    // compiler-builtins' `fminf`/`fmaxf` (about 20 instructions each, 14 per
+    // axis in the interpolator), and Rust leaves the sign of `min(+0.0,
+    // -0.0)` unspecified, so host and target could differ there. This form
+    // is the same on every target: a NaN operand is ignored (minNum), and of
+    // two equal operands (+0.0 and -0.0 included) `self` is returned.
     #[inline(always)]
     fn min(self, rhs: Self) -> Self {
-        f32::min(self, rhs)
+        if rhs < self || self.is_nan() {
+            rhs
+        } else {
+            self
+        }
     }
     #[inline(always)]
     fn max(self, rhs: Self) -> Self {
-        f32::max(self, rhs)
+        if rhs > self || self.is_nan() {
+            rhs
+        } else {
+            self
+        }
     }
     #[inline(always)]
     fn is_finite(self) -> bool {
@@ -404,6 +419,88 @@ const _: () = {
     }
 };
 
+// The fixed-point tick's arithmetic, written with 32 x 32 -> 64-bit
+// multiplies (one `smull`/`umull` each on the Cortex-M7) instead of what
+// `fixed` and i128 compile to there (a 64 x 64-bit multiply with overflow
+// detection for `saturating_mul`, `__multi3` and i128 shifts for the counts
+// and rates: together about 900 of the fixed-point tick's 3400 instructions,
+// docs/BENCHMARKS.md). Each returns exactly what the former expression
+// returned for every input; `tests::fx_fast_paths_equal_the_wide_reference`
+// checks them against it.
+
+/// `I8F24::saturating_mul` on the raw bits. `fixed` computes
+/// `(a * (b << 8)) >> 32` in i64 and saturates when that product overflows;
+/// with `p = a b` (exact in i64, |p| <= 2^62) the product is `p << 8`, which
+/// overflows exactly when `p >> 24` is outside i32, and otherwise the result
+/// is `p >> 24` (both floor). On overflow `p != 0`, so its sign is the
+/// operands' sign rule `fixed` uses (different signs: MIN, else MAX).
+#[inline(always)]
+fn fx_mul_bits(a: i32, b: i32) -> i32 {
+    let p = i64::from(a).wrapping_mul(i64::from(b)); // |p| <= 2^62: exact
+                                                     // p >> 24 fits in i32 exactly when p's top 9 bits (63..55) are all equal,
+                                                     // i.e. when the high word's bits 31..23 are: one compare of the high
+                                                     // word instead of two 64-bit compares.
+    let hi = (p >> 32) as i32;
+    if hi >> 23 == hi >> 31 {
+        (p >> FX_FRAC) as i32
+    } else if p < 0 {
+        i32::MIN
+    } else {
+        i32::MAX
+    }
+}
+
+/// `|a| * |k|` as (high, low) parts: `high * 2^32 + low`, exact
+/// (`|a| <= 2^31`, `|k| <= 2^63`, so high < 2^62 and low < 2^63).
+#[inline(always)]
+fn mag_product(a: u32, k: u64) -> (u64, u64) {
+    let (kh, kl) = ((k >> 32) as u32, k as u32);
+    (u64::from(a).wrapping_mul(u64::from(kh)), u64::from(a).wrapping_mul(u64::from(kl)))
+}
+
+/// `clamp(floor(n k / 2^24), i32)`, formerly computed in i128 (where the
+/// product, below 2^94, never saturates).
+#[inline(always)]
+fn fx_from_counts_bits(n: i32, k: i64) -> i32 {
+    let (hi, lo) = mag_product(n.unsigned_abs(), k.unsigned_abs());
+    let negative = (n < 0) != (k < 0);
+    // m = hi 2^32 + lo; m >> 24 = hi 2^8 + lo >> 24 (hi 2^32 is a multiple of
+    // 2^24, so the discarded bits are lo's low 24). At hi >= 2^40 the
+    // quotient exceeds 2^48 and saturates whatever its sign.
+    if hi >= 1 << 40 {
+        return if negative { i32::MIN } else { i32::MAX };
+    }
+    let q = (hi << 8).wrapping_add(lo >> WIDE_EXTRA); // < 2^48 + 2^39: exact
+    if negative {
+        // floor(-m / 2^24) = -ceil(m / 2^24)
+        let up = q.wrapping_add(u64::from(lo & ((1 << WIDE_EXTRA) - 1) != 0));
+        if up > 1 << 31 {
+            i32::MIN
+        } else {
+            (up as i64).wrapping_neg() as i32
+        }
+    } else if q > i32::MAX as u64 {
+        i32::MAX
+    } else {
+        q as i32
+    }
+}
+
+/// `bits * k` with 72 fractional bits dropped, truncated toward zero and
+/// saturated (formerly in i128): `(hi 2^32 + lo) >> 72 = (hi + lo >> 32) >> 40`
+/// (floor of a floor), and `hi + (lo >> 32) < 2^63` cannot overflow.
+#[inline(always)]
+fn fx_to_rate(bits: i32, k: i64) -> i32 {
+    let (hi, lo) = mag_product(bits.unsigned_abs(), k.unsigned_abs());
+    let mag = hi.wrapping_add(lo >> 32) >> (FX_FRAC + FX_FRAC + WIDE_EXTRA - 32);
+    let mag = if mag > i32::MAX as u64 { i32::MAX } else { mag as i32 };
+    if (bits < 0) != (k < 0) {
+        mag.wrapping_neg()
+    } else {
+        mag
+    }
+}
+
 /// The wide scale of [`Fx`]: a signed value with 48 fractional bits (range
 /// +-32768, checked for the step-rate scale by the configuration), so a
 /// per-count scale such as 2 pi / 4096 / 18.0952 (8.5e-5) keeps ~7 significant
@@ -443,7 +540,7 @@ impl Scalar for Fx {
     }
     #[inline(always)]
     fn times(self, rhs: Self) -> Self {
-        self.saturating_mul(rhs)
+        Fx::from_bits(fx_mul_bits(self.to_bits(), rhs.to_bits()))
     }
     #[inline(always)]
     fn times_int(self, n: i32) -> Self {
@@ -463,7 +560,9 @@ impl Scalar for Fx {
     }
     #[inline(always)]
     fn abs(self) -> Self {
-        self.saturating_abs()
+        // `I8F24::saturating_abs` on the bits (MIN gives MAX), which compiles
+        // to fewer instructions than `fixed`'s.
+        Fx::from_bits(self.to_bits().saturating_abs())
     }
     #[inline(always)]
     fn min(self, rhs: Self) -> Self {
@@ -479,26 +578,11 @@ impl Scalar for Fx {
     }
     #[inline(always)]
     fn from_counts(n: i32, k: FxWide) -> Self {
-        // |n| < 2^31 and |k| < 2^40 for any sane scale would overflow i64 only
-        // for absurd inputs, so use i128 to be total; the shift floors.
-        let p = i128::from(n).saturating_mul(i128::from(k.0)) >> WIDE_EXTRA;
-        // max/min, not `clamp` (which has a panic path for min > max).
-        let bits = p.max(i128::from(i32::MIN)).min(i128::from(i32::MAX)) as i32;
-        Fx::from_bits(bits)
+        Fx::from_bits(fx_from_counts_bits(n, k.0))
     }
     #[inline(always)]
     fn to_rate(self, k: FxWide) -> i32 {
-        let p = i128::from(self.to_bits()).saturating_mul(i128::from(k.0));
-        // bits * k = v * 2^24 * k * 2^48: drop 72 fractional bits, truncating
-        // toward zero like the f32 variant's `as i32`.
-        let shift = FX_FRAC + FX_FRAC + WIDE_EXTRA;
-        let mag = p.unsigned_abs() >> shift;
-        let mag = mag.min(i32::MAX as u128) as i32;
-        if p < 0 {
-            mag.saturating_neg()
-        } else {
-            mag
-        }
+        fx_to_rate(self.to_bits(), k.0)
     }
     fn to_scaled_int(self, scale: i64) -> i64 {
         let p = i128::from(self.to_bits()).saturating_mul(i128::from(scale));
@@ -627,6 +711,111 @@ mod tests {
         assert_eq!(Fx::parse_decimal("-0.000"), Some(Fx::ZERO));
         assert_eq!(Fx::parse_decimal("200.000"), None);
         assert_eq!(f32::parse_decimal("1e39"), None);
+    }
+
+    #[test]
+    fn f32_min_max_are_min_num_max_num_with_self_on_ties() {
+        let nan = f32::NAN;
+        // A NaN operand is ignored; two NaNs give NaN.
+        assert_eq!(Scalar::min(nan, 2.0f32), 2.0);
+        assert_eq!(Scalar::min(2.0f32, nan), 2.0);
+        assert_eq!(Scalar::max(nan, -2.0f32), -2.0);
+        assert_eq!(Scalar::max(-2.0f32, nan), -2.0);
+        assert!(Scalar::min(nan, nan).is_nan() && Scalar::max(nan, nan).is_nan());
+        // Equal operands: `self`, so the sign of a zero is defined.
+        assert_eq!(Scalar::min(0.0f32, -0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(Scalar::min(-0.0f32, 0.0).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(Scalar::max(0.0f32, -0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(Scalar::max(-0.0f32, 0.0).to_bits(), (-0.0f32).to_bits());
+        // Otherwise the same as `f32::min`/`max` (a sampled sweep of bit
+        // patterns, infinities and subnormals included).
+        let mut x: u32 = 0x1234_5678;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let (a, b) = (f32::from_bits(x), f32::from_bits(x.rotate_left(11)));
+            if a == b {
+                continue;
+            }
+            assert_eq!(Scalar::min(a, b).to_bits(), f32::min(a, b).to_bits(), "{a} {b}");
+            assert_eq!(Scalar::max(a, b).to_bits(), f32::max(a, b).to_bits(), "{a} {b}");
+        }
+        for (a, b) in [(f32::INFINITY, 1.0f32), (f32::NEG_INFINITY, 1.0), (1e-45, -1e-45), (f32::MAX, f32::MIN)] {
+            assert_eq!(Scalar::min(a, b), f32::min(a, b));
+            assert_eq!(Scalar::max(b, a), f32::max(b, a));
+        }
+    }
+
+    /// The former expressions, for `fx_fast_paths_equal_the_wide_reference`.
+    fn ref_mul(a: i32, b: i32) -> i32 {
+        Fx::from_bits(a).saturating_mul(Fx::from_bits(b)).to_bits()
+    }
+    fn ref_from_counts(n: i32, k: i64) -> i32 {
+        let p = i128::from(n).saturating_mul(i128::from(k)) >> WIDE_EXTRA;
+        p.max(i128::from(i32::MIN)).min(i128::from(i32::MAX)) as i32
+    }
+    fn ref_to_rate(bits: i32, k: i64) -> i32 {
+        let p = i128::from(bits).saturating_mul(i128::from(k));
+        let mag = p.unsigned_abs() >> (FX_FRAC + FX_FRAC + WIDE_EXTRA);
+        let mag = mag.min(i32::MAX as u128) as i32;
+        if p < 0 {
+            mag.saturating_neg()
+        } else {
+            mag
+        }
+    }
+
+    #[test]
+    fn fx_fast_paths_equal_the_wide_reference() {
+        // Edge operands (zero, one, the extremes, powers of two and their
+        // neighbours, the shipped configuration's scales) in every pairing,
+        // then 2 million pseudo-random pairs: sampled evidence; the
+        // arguments are in the functions' comments.
+        let mut e32: std::vec::Vec<i32> = std::vec![0, 1, -1, i32::MAX, i32::MIN, i32::MAX - 1, i32::MIN + 1];
+        let mut e64: std::vec::Vec<i64> = std::vec![0, 1, -1, i64::MAX, i64::MIN, i64::MAX - 1, i64::MIN + 1];
+        for s in 0..63 {
+            for d in [-1i64, 0, 1] {
+                let v = (1i64 << s) + d;
+                e64.extend([v, -v]);
+                if s < 31 {
+                    e32.extend([v as i32, -(v as i32)]);
+                }
+            }
+        }
+        for j in crate::config::PAROL6.joints.iter() {
+            for f in [j.rad_per_count(), j.steps_per_rad(), -j.steps_per_rad()] {
+                e64.push(Fx::wide_from_f64(f).0);
+            }
+        }
+        for &a in &e32 {
+            for &b in &e32 {
+                assert_eq!(fx_mul_bits(a, b), ref_mul(a, b), "mul {a} {b}");
+            }
+            for &w in &e64 {
+                assert_eq!(fx_from_counts_bits(a, w), ref_from_counts(a, w), "counts {a} {w}");
+                assert_eq!(fx_to_rate(a, w), ref_to_rate(a, w), "rate {a} {w}");
+            }
+        }
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for i in 0..2_000_000u32 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Shrink some operands so every magnitude range is visited.
+            let a = (x as i32) >> (i % 32);
+            let b = ((x >> 32) as i32) >> ((i / 32) % 32);
+            let w = (x.rotate_left(17) as i64) >> (i % 64);
+            assert_eq!(fx_mul_bits(a, b), ref_mul(a, b), "mul {a} {b}");
+            assert_eq!(fx_from_counts_bits(a, w), ref_from_counts(a, w), "counts {a} {w}");
+            assert_eq!(fx_to_rate(a, w), ref_to_rate(a, w), "rate {a} {w}");
+            let f = Fx::from_bits(a);
+            assert_eq!(Scalar::abs(f), f.saturating_abs(), "abs {a}");
+        }
+        for &a in &e32 {
+            let f = Fx::from_bits(a);
+            assert_eq!(Scalar::abs(f), f.saturating_abs(), "abs {a}");
+        }
     }
 
     #[test]
