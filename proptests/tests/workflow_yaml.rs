@@ -199,3 +199,36 @@ fn proof_inventory_is_archived() {
     assert_eq!(str_of(&upload["with"]["path"], "path").trim_end_matches('/'), "kani-inventory");
     assert_eq!(upload["if"].as_str(), Some("always()"));
 }
+
+/// The nightly long fuzz run has one job per fuzz target, every target of
+/// `protocol/fuzz/fuzz_targets` and no other, each under a timeout.
+#[test]
+fn fuzz_long_runs_every_fuzz_target() {
+    let wf = workflow();
+    let job = &wf["jobs"]["fuzz-long"];
+    assert!(job["timeout-minutes"].as_u64().is_some_and(|m| m <= 360), "fuzz-long needs a timeout");
+    let mut matrix: Vec<String> = job["strategy"]["matrix"]["target"]
+        .as_sequence()
+        .expect("fuzz-long matrix.target")
+        .iter()
+        .map(|v| v.as_str().expect("target name").to_string())
+        .collect();
+    matrix.sort();
+    let dir = root().join("protocol/fuzz/fuzz_targets");
+    let mut targets: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("dir entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+        .map(|p| p.file_stem().expect("stem").to_string_lossy().into_owned())
+        .collect();
+    targets.sort();
+    assert_eq!(matrix, targets, "fuzz-long's matrix and protocol/fuzz/fuzz_targets differ");
+    let run = job["steps"]
+        .as_sequence()
+        .expect("steps")
+        .iter()
+        .filter_map(|s| s["run"].as_str())
+        .find(|r| r.contains("protocol/fuzz/run.sh"))
+        .expect("a step runs protocol/fuzz/run.sh");
+    assert!(run.contains("FUZZ_TARGETS=${{ matrix.target }}"), "each job fuzzes its own target: {run}");
+}
