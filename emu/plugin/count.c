@@ -13,9 +13,10 @@
  * the measured code, and the call of the stop marker: a constant overhead
  * that emu-host measures with an empty region, channel "cal").
  *
- * Optional per-address profile: prof=FILE:NAME writes "ADDRESS COUNT" for
- * every instruction executed while mark NAME is open (between its start and
- * stop markers), counted per translated block as it starts (a block runs to
+ * Optional per-address profile: prof=FILE:NAME[:FROM:TO] writes "ADDRESS
+ * COUNT" for every instruction executed while mark NAME is open (between its
+ * start and stop markers; with FROM:TO only in its samples FROM..TO-1,
+ * counted from 0), counted per translated block as it starts (a block runs to
  * its end: the replay takes no exception inside a measured region). The stop
  * marker's block is included; emu/bench.sh attributes addresses to functions.
  *
@@ -54,6 +55,7 @@ static uint64_t unmatched;
 static uint64_t *prof_count;
 static struct mark *prof_mark;
 static char prof_name[32];
+static uint64_t prof_from, prof_to = UINT64_MAX;
 static FILE *prof_out;
 
 struct tb_addrs {
@@ -65,7 +67,7 @@ static void on_tb_exec(unsigned int vcpu, void *ud)
 {
     const struct tb_addrs *t = ud;
     (void)vcpu;
-    if (!prof_mark || !prof_mark->open) {
+    if (!prof_mark || !prof_mark->open || prof_mark->samples < prof_from || prof_mark->samples >= prof_to) {
         return;
     }
     for (size_t i = 0; i < t->n; i++) {
@@ -183,12 +185,12 @@ EMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t
             memcpy(m->name, name, sizeof name);
             n_marks++;
         } else if (strncmp(a, "prof=", 5) == 0) {
-            const char *colon = strrchr(a + 5, ':');
-            if (!colon || strlen(colon + 1) >= sizeof prof_name) {
-                fprintf(stderr, "count: bad argument %s (prof=FILE:NAME)\n", a);
+            /* FILE:NAME or FILE:NAME:FROM:TO (FILE has no colon). */
+            const char *colon = strchr(a + 5, ':');
+            if (!colon || sscanf(colon + 1, "%31[^:]:%" SCNu64 ":%" SCNu64, prof_name, &prof_from, &prof_to) < 1) {
+                fprintf(stderr, "count: bad argument %s (prof=FILE:NAME[:FROM:TO])\n", a);
                 return -1;
             }
-            strcpy(prof_name, colon + 1);
             char *file = strndup(a + 5, (size_t)(colon - (a + 5)));
             prof_out = file ? fopen(file, "w") : NULL;
             if (!prof_out) {

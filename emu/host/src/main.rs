@@ -4,6 +4,7 @@
 //! emu-host record  DIR            record scenario_f32.bin / scenario_fx.bin
 //! emu-host replay  DIR            print the trace the target must print
 //! emu-host analyze DIR COUNTS     instruction-count statistics (markdown)
+//! emu-host stream-range DIR       tick indices of the streamed trajectory
 //! ```
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -215,6 +216,15 @@ fn state_runs(states: &[State]) -> Vec<State> {
     runs
 }
 
+/// The ticks of the streamed trajectory: the first Operational run (after
+/// homing, until the command timeout starts the soft stop), less the tick
+/// that ended homing and the 20 ticks at rest before the stream's first frame.
+fn stream_range(states: &[State]) -> std::ops::Range<usize> {
+    let first_op = states.iter().position(|s| *s == State::Operational).unwrap_or(0);
+    let op_len = states[first_op..].iter().take_while(|s| **s == State::Operational).count();
+    first_op + 21..first_op + op_len
+}
+
 /// Fails unless the replayed states follow [`SCENARIO_PATH`].
 fn check_path(var: &str, states: &[State]) -> Result<(), String> {
     let runs = state_runs(states);
@@ -265,11 +275,20 @@ fn run(args: &[String]) -> Result<(), String> {
             print!("{}", p.0);
             Ok(())
         }
+        "stream-range" => {
+            // The tick indices FROM TO (TO exclusive) of the streamed
+            // trajectory, for count.c's prof=FILE:NAME:FROM:TO.
+            let (states, _) = classify::<f32>(&read(&scenario_path(&dir, "f32"))?)?;
+            check_path("f32", &states)?;
+            let r = stream_range(&states);
+            println!("{} {}", r.start, r.end);
+            Ok(())
+        }
         "analyze" => {
             let counts = args.get(2).ok_or("analyze DIR COUNTS")?;
             analyze(&dir, Path::new(counts))
         }
-        _ => Err("usage: emu-host record|replay DIR | analyze DIR COUNTS".into()),
+        _ => Err("usage: emu-host record|replay|stream-range DIR | analyze DIR COUNTS".into()),
     }
 }
 
@@ -377,12 +396,7 @@ fn analyze(dir: &Path, counts: &Path) -> Result<(), String> {
         let (states, motion_ok) = if var == "f32" { classify::<f32>(data)? } else { classify::<Fx>(data)? };
         check_path(var, &states)?;
         row(&mut out, "full six-axis tick, whole scenario", var, &ticks);
-        // The streamed trajectory: the first Operational run (after homing,
-        // until the command timeout starts the soft stop), less the tick that
-        // ended homing and the 20 ticks at rest before the stream's first frame.
-        let first_op = states.iter().position(|s| *s == State::Operational).unwrap_or(0);
-        let op_len = states[first_op..].iter().take_while(|s| **s == State::Operational).count();
-        let stream = ticks.get(first_op + 21..first_op + op_len).unwrap_or(&[]);
+        let stream = ticks.get(stream_range(&states)).unwrap_or(&[]);
         row(&mut out, "tick while following the stream (1.5 s, a frame every 10 ms)", var, stream);
         let mut seen: Vec<State> = Vec::new();
         for s in &states {
