@@ -140,6 +140,9 @@ pub struct Board {
     pub vtor: u32,
     /// NVIC ISER bits.
     pub nvic_en: [u32; 8],
+    /// NVIC IPR: one priority byte per interrupt (the i.MXRT1062 implements
+    /// the upper 4 bits; the lower read 0).
+    pub nvic_ipr: [u8; 240],
     /// DWT CYCCNT offset (CYCCNT = now + offset when enabled).
     pub cyccnt_off: u32,
     /// DWT CTRL.
@@ -158,6 +161,15 @@ pub struct Board {
     pub stopped_at: Option<u32>,
     /// Stops deferred because the CPU was inside an IT block.
     pub it_deferred: u64,
+    /// Set by the harness: the PIT interrupt is pending and enabled but
+    /// masked (PRIMASK, FAULTMASK or BASEPRI) in thread code, so the block
+    /// hook stops the CPU at the first block that runs unmasked (the
+    /// instruction after the one that lifted the mask: QEMU ends a
+    /// translated block after `MSR PRIMASK`/`BASEPRI`/`FAULTMASK` and
+    /// `CPSIE`), where the harness takes the interrupt.
+    pub irq_wait_unmask: bool,
+    /// PIT entries that waited for the mask to be lifted.
+    pub irq_unmask_entries: u64,
     /// Last translated-block addresses (diagnostics).
     pub trace: [u32; 16],
     /// Next slot of `trace`.
@@ -205,6 +217,7 @@ impl Board {
             srsr: 1, // IPP_RESET_B: power-on
             vtor: 0,
             nvic_en: [0; 8],
+            nvic_ipr: [0; 240],
             cyccnt_off: 0,
             dwt_ctrl: 0x4000_0000,
             demcr: 0,
@@ -213,6 +226,8 @@ impl Board {
             stop_at: 0,
             hints_patched: 0,
             it_deferred: 0,
+            irq_wait_unmask: false,
+            irq_unmask_entries: 0,
             stopped_at: None,
             trace: [0; 16],
             trace_i: 0,
@@ -253,6 +268,7 @@ impl Board {
         self.xbar_last_trigger.clear();
         self.vtor = 0;
         self.nvic_en = [0; 8];
+        self.nvic_ipr = [0; 240];
         self.dwt_ctrl = 0x4000_0000;
         self.demcr = 0;
         for p in self.plant.joints.iter_mut() {
@@ -636,6 +652,18 @@ impl Board {
             t = t.min(w);
         }
         t
+    }
+
+    /// When the pending PIT interrupt was raised: the latest expiry of a
+    /// channel whose `TIF` and `TIE` are set (the earliest such channel if
+    /// several), or `None` if none is pending.
+    pub fn pit_raised_at(&self) -> Option<u64> {
+        let clk = self.pit_clock_cycles();
+        self.pit
+            .iter()
+            .filter(|c| c.tif && c.tctrl & 2 != 0 && c.expiries > 0)
+            .map(|c| c.start + c.expiries * (u64::from(c.ldval) + 1) * clk)
+            .min()
     }
 
     /// The PIT interrupt is pending and enabled in the NVIC.

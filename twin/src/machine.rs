@@ -51,6 +51,12 @@ pub struct Stats {
     pub pit_calls: u64,
     /// Time (cycles) of each PIT handler entry (bounded).
     pub pit_entries: Vec<u64>,
+    /// Per entry (bounded like `pit_entries`): cycles from the PIT expiry
+    /// that raised the pending interrupt to the handler's entry.
+    pub pit_latency: Vec<u64>,
+    /// Per entry (bounded): the thread PC the interrupt was taken at (the
+    /// return address of its exception frame).
+    pub pit_from: Vec<u32>,
     /// Instructions executed by each PIT handler call, entry to return
     /// (bounded): the whole interrupt (sense mapping, kernel tick, step
     /// commands, telemetry push, watchdog), as issue 14 asks.
@@ -126,8 +132,8 @@ impl Twin {
             Some(|uc: &mut Unicorn<'_, Board>, off: u64, size: usize| {
                 u64::from(ppb_read(uc.get_data_mut(), PPB as u32 + off as u32, size))
             }),
-            Some(|uc: &mut Unicorn<'_, Board>, off: u64, _size: usize, v: u64| {
-                ppb_write(uc.get_data_mut(), PPB as u32 + off as u32, v as u32)
+            Some(|uc: &mut Unicorn<'_, Board>, off: u64, size: usize, v: u64| {
+                ppb_write(uc.get_data_mut(), PPB as u32 + off as u32, size, v as u32)
             }),
         )
         .map_err(e)?;
@@ -143,7 +149,9 @@ impl Twin {
                 && b.idle_skip_allowed
                 && b.now.saturating_sub(b.last_write_at) > IDLE_CYCLES
                 && b.uart_rx_quiet();
-            if b.now >= b.stop_at || addr == SENTINEL || idle {
+            let unmasked = b.irq_wait_unmask && !pit_masked(uc);
+            let b = uc.get_data_mut();
+            if b.now >= b.stop_at || addr == SENTINEL || idle || unmasked {
                 // Never stop inside an IT block: restarting writes the PC,
                 // which loses ITSTATE (the rest of the block would run
                 // unconditionally). Stop at the next block instead.
@@ -255,22 +263,26 @@ impl Twin {
                 b.srsr = 1 << 7; // WDOG3_RST_B
                 self.cpu_reset().map_err(|w| self.fault(w))?;
             }
-            let primask = self.uc.reg_read(RegisterARM::PRIMASK).unwrap_or(0) & 1;
             let pending = self.board_mut().pit_irq();
-            if self.in_handler.is_none() && pending && primask == 0 {
+            let masked = pit_masked(&self.uc);
+            if self.in_handler.is_none() && pending && !masked {
                 self.enter_pit()?;
             }
             let now = self.now();
+            let in_thread = self.in_handler.is_none();
             let b = self.board_mut();
             b.wdog_check();
             if b.reset.is_some() {
                 continue;
             }
-            let mut stop = t_end.min(b.next_event());
-            if pending {
-                // masked or in the handler: look again soon
-                stop = stop.max(now + 1).min(now + 200);
-            }
+            let stop = t_end.min(b.next_event());
+            // Pending but not taken: in thread code it is masked, and is
+            // taken at the first block that runs unmasked (the block hook
+            // stops there: the NVIC keeps the interrupt pending, and the
+            // core takes it as soon as the mask is lifted); in a handler it
+            // waits for the handler's return (same priority: no nesting;
+            // the return to the sentinel stops the CPU).
+            b.irq_wait_unmask = pending && in_thread;
             b.stop_at = stop.max(now + 1);
             // Idle skipping: only thread code (no handler running) after the
             // image enabled the PIT interrupt, i.e. its main loop.
@@ -336,6 +348,7 @@ impl Twin {
         let e = |x: unicorn_engine::uc_error| format!("{x:?}");
         let vtor = self.board().vtor;
         let handler = read_u32(&self.uc, u64::from(vtor) + 4 * (16 + u64::from(IRQ_PIT))).map_err(|w| self.fault(w))?;
+        let from = self.next_pc.unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0)) as u32;
         let mut ctx = self.uc.context_alloc().map_err(|x| self.fault(e(x)))?;
         self.uc.context_save(&mut ctx).map_err(|x| self.fault(e(x)))?;
         let sp = self.uc.reg_read(RegisterARM::SP).unwrap_or(0);
@@ -348,11 +361,18 @@ impl Twin {
             return Err(self.fault("cannot enter the PIT handler".into()));
         }
         self.in_handler = Some(ctx);
-        self.board_mut().in_pit = true;
+        let b = self.board_mut();
+        b.in_pit = true;
+        if std::mem::take(&mut b.irq_wait_unmask) {
+            b.irq_unmask_entries += 1;
+        }
+        let now = b.now;
+        let raised = b.pit_raised_at().unwrap_or(now);
         self.stats.pit_calls += 1;
         if self.stats.pit_entries.len() < 1_000_000 {
-            let now = self.now();
             self.stats.pit_entries.push(now);
+            self.stats.pit_latency.push(now.saturating_sub(raised));
+            self.stats.pit_from.push(from);
         }
         Ok(())
     }
@@ -450,6 +470,28 @@ fn read_u32(uc: &Unicorn<'_, Board>, a: u64) -> Result<u32, String> {
     Ok(u32::from_le_bytes(b))
 }
 
+/// The PIT interrupt cannot preempt the running code: PRIMASK or FAULTMASK
+/// set, or BASEPRI non-zero and not above the PIT's group priority
+/// (ARMv7-M B1.5.4: an exception preempts only with a group priority
+/// numerically lower than the execution priority, which PRIMASK boosts to
+/// 0, FAULTMASK to -1 and a non-zero BASEPRI to its value).
+pub fn pit_masked(uc: &Unicorn<'_, Board>) -> bool {
+    let reg = |r| uc.reg_read(r).unwrap_or(0) as u32;
+    if reg(RegisterARM::PRIMASK) & 1 != 0 || reg(RegisterARM::FAULTMASK) & 1 != 0 {
+        return true;
+    }
+    let basepri = reg(RegisterARM::BASEPRI) & 0xF0;
+    if basepri == 0 {
+        return false;
+    }
+    let b = uc.get_data();
+    // AIRCR.PRIGROUP: priority bits [PRIGROUP:0] are the subpriority
+    let prigroup = (b.regs.get(&0xE000_ED0C).copied().unwrap_or(0) >> 8) & 7;
+    let group = 0xFFu32 << (prigroup + 1);
+    let prio = u32::from(b.nvic_ipr[IRQ_PIT as usize]);
+    prio & group >= basepri & group
+}
+
 fn cyccnt_enabled(b: &Board) -> bool {
     b.demcr & (1 << 24) != 0 && b.dwt_ctrl & 1 != 0
 }
@@ -469,6 +511,10 @@ fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
         0xE000_EDFC => b.demcr,
         x @ 0xE000_E100..=0xE000_E11C => b.nvic_en[((x - 0xE000_E100) / 4) as usize],
         x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize],
+        x @ 0xE000_E400..=0xE000_E4EC => {
+            let i = (x - 0xE000_E400) as usize;
+            u32::from_le_bytes([b.nvic_ipr[i], b.nvic_ipr[i + 1], b.nvic_ipr[i + 2], b.nvic_ipr[i + 3]])
+        }
         x => b.regs.get(&x).copied().unwrap_or(0),
     };
     let shift = (a & 3) * 8;
@@ -479,9 +525,19 @@ fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
     }
 }
 
-fn ppb_write(b: &mut Board, a: u32, v: u32) {
+fn ppb_write(b: &mut Board, a: u32, size: usize, v: u32) {
     b.last_write_at = b.now;
     match a & !3 {
+        0xE000_E400..=0xE000_E4EC => {
+            // NVIC IPR: byte-accessible (the value comes unshifted, at its
+            // own address); 4 priority bits implemented
+            let i = (a - 0xE000_E400) as usize;
+            for (k, byte) in v.to_le_bytes().iter().take(size).enumerate() {
+                if let Some(p) = b.nvic_ipr.get_mut(i + k) {
+                    *p = byte & 0xF0;
+                }
+            }
+        }
         0xE000_1000 => {
             // entering/leaving the enabled state keeps the count continuous
             let before = ppb_read(b, 0xE000_1004, 4);
