@@ -73,13 +73,28 @@ pub fn sense(
 /// as [`HardwareFault::Driver`] on the next tick.
 pub fn act(rates: &[i32; AXES], plan: &StepPlan) -> ([StepCommand; AXES], Option<u8>) {
     let mut out = [StepCommand::Stop; AXES];
+    let refused = act_into(rates, plan, &mut out);
+    (out, refused)
+}
+
+/// [`act`] into caller-owned storage (the tick's record): `out` holds all
+/// six commands, or six `Stop`s and the first axis that could not be
+/// programmed is returned.
+pub fn act_into(rates: &[i32; AXES], plan: &StepPlan, out: &mut [StepCommand; AXES]) -> Option<u8> {
+    let mut refused = None;
     for (i, (o, &r)) in out.iter_mut().zip(rates.iter()).enumerate() {
         match plan.command(r.saturating_mul(1000)) {
             Ok(c) => *o = c,
-            Err(_) => return ([StepCommand::Stop; AXES], Some(i as u8)),
+            Err(_) => {
+                refused = Some(i as u8);
+                break;
+            }
         }
     }
-    (out, None)
+    if refused.is_some() {
+        *out = [StepCommand::Stop; AXES];
+    }
+    refused
 }
 
 /// CPU cycles (600 MHz) -> whole microseconds.
@@ -114,6 +129,18 @@ pub fn boot_fault(panic_marker: u32, watchdog_reset: bool, encoder_fail_mask: u8
         Some(HardwareFault::SelfTest(code::ENCODER | (encoder_fail_mask & 0x3F)))
     } else {
         None
+    }
+}
+
+/// The boot fault as one byte for the boot log line (no `core::fmt` in the
+/// image): 0 none, the [`code`] of a self-test fault, `0xF0 | axis` a driver
+/// fault, `0xFF` a tick overrun (the last two never occur at boot).
+pub const fn boot_fault_log_code(fault: Option<HardwareFault>) -> u8 {
+    match fault {
+        None => 0,
+        Some(HardwareFault::SelfTest(c)) => c,
+        Some(HardwareFault::Driver { axis }) => 0xF0 | (axis & 0x0F),
+        Some(HardwareFault::TickOverrun) => 0xFF,
     }
 }
 
@@ -234,6 +261,16 @@ mod tests {
         assert_eq!(boot_fault(1, true, 0x3F), Some(HardwareFault::SelfTest(code::WATCHDOG_RESET)));
         assert_eq!(boot_fault(0, false, 0b10_0001), Some(HardwareFault::SelfTest(0x40 | 0b10_0001)));
         assert_eq!(boot_fault(0, false, 0xC0), None);
+    }
+
+    #[test]
+    fn boot_fault_log_codes() {
+        assert_eq!(boot_fault_log_code(None), 0);
+        assert_eq!(boot_fault_log_code(boot_fault(PANIC_MARKER, false, 0)), 0x80);
+        assert_eq!(boot_fault_log_code(boot_fault(0, true, 0)), 0x81);
+        assert_eq!(boot_fault_log_code(boot_fault(0, false, 0b101)), 0x45);
+        assert_eq!(boot_fault_log_code(Some(HardwareFault::Driver { axis: 3 })), 0xF3);
+        assert_eq!(boot_fault_log_code(Some(HardwareFault::TickOverrun)), 0xFF);
     }
 
     #[test]

@@ -31,7 +31,10 @@ use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
 use hal_imxrt::pure::step::{StepCommand, StepPlan};
 use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
-use kernel::{Actuation, Authority, Event, Events, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense, State};
+use kernel::{
+    Actuation, Authority, EncoderSample, Event, Events, HardwareFault, KernelF32, MotionTarget, RequestKind, Sense,
+    State,
+};
 use protocol::feedback::{FeedbackDivider, FeedbackMode};
 use protocol::queue::{HostEnd, Link, Telemetry, TickEnd};
 use protocol::receiver::{Counters, Received, Receiver};
@@ -110,6 +113,7 @@ pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Co
         pending_fault: None,
         last_us: 0,
         ack: 0,
+        rec: TickRecord::EMPTY,
     };
     let host = Host {
         rx: Receiver::new(cfg, host.protocol),
@@ -145,6 +149,20 @@ pub struct TickRecord {
     pub cmds: [StepCommand; AXES],
 }
 
+impl TickRecord {
+    /// The record before the first tick (no outputs, no events, nothing
+    /// sensed yet).
+    const EMPTY: TickRecord = TickRecord {
+        act: Actuation { velocity: [0.0; AXES], step_rate: [0; AXES] },
+        events: Events::new(),
+        request: None,
+        target: None,
+        sense: Sense { encoders: [EncoderSample::Lost; AXES], limits: 0, hardware_fault: None, link_lost: false },
+        readings: [EncoderReading::Lost(LossReason::Acquiring); AXES],
+        cmds: [StepCommand::Stop; AXES],
+    };
+}
+
 /// The outcome of the boot self-test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BootReport {
@@ -168,6 +186,11 @@ pub struct Controller<'a> {
     pending_fault: Option<HardwareFault>,
     last_us: u32,
     ack: u32,
+    /// The tick's working record, owned here once instead of living in the
+    /// interrupt's stack frame: the readings, sense, request, outputs,
+    /// events and step commands of the last tick (issue 14: the PIT frame
+    /// held every one of them, plus their copies, 624 B).
+    rec: TickRecord,
 }
 
 impl core::fmt::Debug for Controller<'_> {
@@ -223,53 +246,23 @@ impl Controller<'_> {
     /// One control tick: sense -> one request -> kernel -> act (all six or
     /// none) -> telemetry -> reset policy -> watchdog -> overrun check. No
     /// allocation, no blocking, no formatting.
+    ///
+    /// The tick works in the controller's own record (`rec`), not in stack
+    /// locals, and its steps are separate functions, so the interrupt's
+    /// worst stack is the largest step's frame, not the sum of all of them
+    /// (issue 14: <= 512 B with the exception frame). The returned record
+    /// is a copy for the simulator; the image discards it (no copy is made).
     #[inline(always)]
     pub fn tick<B: TickBoard + ?Sized>(&mut self, board: &mut B) -> TickRecord {
         let t0 = board.cycles();
         // 1. sense
-        let snaps = board.capture();
-        let mut readings = [EncoderReading::Lost(LossReason::Acquiring); AXES];
-        for ((r, s), ch) in readings.iter_mut().zip(snaps).zip(self.channels.iter_mut()) {
-            *r = ch.update(s);
-        }
-        let limits = self.sample_limits(board);
-        let sense = crate::sense(&readings, &limits, self.pending_fault.take(), self.link.link_lost());
-        // 2. one request; ENABLE becomes a capability only here
-        let cmd = self.link.recv();
-        let (target, seq) = match &cmd {
-            Some(Command::Motion { seq, target, .. }) => (Some(*target), Some(*seq)),
-            _ => (None, None),
-        };
-        let authority = &self.authority;
-        let request = cmd.map(|c| c.into_request(authority));
-        let kind = request.as_ref().map(|r| r.kind());
-        // 3. kernel
-        let mut act = Actuation::zero();
-        let mut events = Events::new();
-        self.kernel.tick_into(&sense, request, &mut act, &mut events);
+        self.sense_step(board);
+        // 2. one request (ENABLE becomes a capability only here); 3. kernel
+        self.kernel_step();
         // 4. act (all six or none)
-        let (cmds, refused) = crate::act(&act.step_rate, &self.step_cfg);
-        board.apply(&cmds);
-        if let Some(axis) = refused {
-            self.pending_fault = Some(HardwareFault::Driver { axis });
-        }
+        self.act_step(board);
         // 5. telemetry (never blocks; losses are counted by the link)
-        if let Some(seq) = seq {
-            let refused = events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
-            if !refused {
-                self.ack = seq;
-            }
-        }
-        for e in events.iter() {
-            self.link.send(Telemetry::Event(*e));
-        }
-        if events.dropped() > 0 {
-            self.link.send(Telemetry::EventsLost(events.dropped()));
-        }
-        if self.divider.tick() {
-            let status = self.kernel.status(sense.limits);
-            self.link.send(Telemetry::Status { status, tick_us: self.last_us, ack: self.ack });
-        }
+        self.telemetry_step();
         // 6. reset policy: a latched tracker re-acquires while the kernel
         // holds a fault; ENABLE then re-initialises the axis (re-homing).
         if self.kernel.state() == State::Fault {
@@ -282,7 +275,78 @@ impl Controller<'_> {
             self.pending_fault = Some(HardwareFault::TickOverrun);
         }
         self.last_us = crate::cycles_to_us(board.cycles().wrapping_sub(t0));
-        TickRecord { act, events, request: kind, target, sense, readings, cmds }
+        self.rec
+    }
+
+    /// Tick step 1: encoder capture, decode and tracking, limit debounce ->
+    /// `rec.readings`, `rec.sense`.
+    #[inline(never)]
+    fn sense_step<B: TickBoard + ?Sized>(&mut self, board: &mut B) {
+        let snaps = board.capture();
+        for ((r, s), ch) in self.rec.readings.iter_mut().zip(snaps.iter()).zip(self.channels.iter_mut()) {
+            *r = ch.update(*s);
+        }
+        let limits = self.sample_limits(board);
+        self.rec.sense = crate::sense(&self.rec.readings, &limits, self.pending_fault.take(), self.link.link_lost());
+    }
+
+    /// Tick steps 2 and 3: at most one command from the queue (ENABLE
+    /// becomes a capability only here), the kernel's tick into
+    /// `rec.act` / `rec.events`, and the ACK of an accepted motion frame.
+    #[inline(never)]
+    fn kernel_step(&mut self) {
+        let cmd = self.link.recv();
+        let (target, seq) = match &cmd {
+            Some(Command::Motion { seq, target, .. }) => (Some(*target), Some(*seq)),
+            _ => (None, None),
+        };
+        let authority = &self.authority;
+        let request = cmd.map(|c| c.into_request(authority));
+        self.rec.request = request.as_ref().map(|r| r.kind());
+        self.rec.target = target;
+        let rec = &mut self.rec;
+        rec.act = Actuation::zero();
+        rec.events = Events::new();
+        self.kernel.tick_into(&rec.sense, request, &mut rec.act, &mut rec.events);
+        if let Some(seq) = seq {
+            let refused = rec.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
+            if !refused {
+                self.ack = seq;
+            }
+        }
+    }
+
+    /// Tick step 4: step rates -> step commands (all six or none) ->
+    /// `rec.cmds`, programmed on the board.
+    #[inline(never)]
+    fn act_step<B: TickBoard + ?Sized>(&mut self, board: &mut B) {
+        let refused = crate::act_into(&self.rec.act.step_rate, &self.step_cfg, &mut self.rec.cmds);
+        board.apply(&self.rec.cmds);
+        if let Some(axis) = refused {
+            self.pending_fault = Some(HardwareFault::Driver { axis });
+        }
+    }
+
+    /// Tick step 5: the events, a count of lost ones, and the status when
+    /// the feedback divider says it is due, into the telemetry queue.
+    #[inline(never)]
+    fn telemetry_step(&mut self) {
+        for e in self.rec.events.iter() {
+            self.link.send(Telemetry::Event(*e));
+        }
+        if self.rec.events.dropped() > 0 {
+            self.link.send(Telemetry::EventsLost(self.rec.events.dropped()));
+        }
+        if self.divider.tick() {
+            self.send_status();
+        }
+    }
+
+    /// The status line's snapshot (built only when it is due).
+    #[inline(never)]
+    fn send_status(&mut self) {
+        let status = self.kernel.status(self.rec.sense.limits);
+        self.link.send(Telemetry::Status { status, tick_us: self.last_us, ack: self.ack });
     }
 
     /// The kernel (read-only).

@@ -11,8 +11,8 @@ crate, since the code is core's). Anonymous constants (`.Lanon.*`: string
 literals, tables) are one group. The Teensy boot header (`.boot`: FlexSPI
 configuration, IVT, boot data) and the vector table are fixed costs and
 listed apart. Symbols without a size are not counted. Inlined code counts for
-the function it was inlined into (the kernel's tick is inlined into the PIT
-handler), so the figures show where bytes sit, not which source wrote them.
+the function it was inlined into (the kernel's tick is inlined into
+`firmware::root::Controller::kernel_step`), so the figures show where bytes sit, not which source wrote them.
 """
 import re
 import subprocess
@@ -68,7 +68,7 @@ print(f"flash image {flash} B: .boot {sections.get('.boot', 0)} (Teensy boot hea
       f".vector_table {sections.get('.vector_table', 0)}, .text {sections.get('.text', 0)}, "
       f".rodata {sections.get('.rodata', 0)}, .data {sections.get('.data', 0)}")
 print(f"sized symbols in flash sections: {counted} B. Code inlined into a caller counts for the caller")
-print("(the kernel's tick is inlined into the PIT handler, the host's receive and formatting into main).\n")
+print("(the kernel's tick is inlined into the firmware crate's Controller::kernel_step, the host's receive and formatting into main).\n")
 print("| crate | bytes | share of the image |")
 print("|---|---:|---:|")
 for crate, size in by.most_common():

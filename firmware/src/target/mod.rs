@@ -231,10 +231,10 @@ fn main() -> ! {
 
     let mut clock = MsClock::new(cycles_now());
     defmt::info!(
-        "PAROL6 fw {=str} config {=u64:x} boot_fault {=?} enc_fail {=u8:b}",
+        "PAROL6 fw {=str} config {=u64:x} boot_fault {=u8:#x} enc_fail {=u8:b}",
         firmware::VERSION,
         config_fingerprint(&PAROL6),
-        defmt::Debug2Format(&boot.fault),
+        firmware::boot_fault_log_code(boot.fault),
         boot.encoder_fail
     );
     let mut drain = [0u8; 64];
@@ -257,20 +257,34 @@ fn cycles_now() -> u32 {
 }
 
 /// Milliseconds since boot from the wrapping DWT counter (main loop only;
-/// it runs far more often than the 7.16 s wrap).
+/// it runs far more often than the 7.16 s wrap). Whole milliseconds plus the
+/// cycles of the current one: the same count as dividing the 64-bit cycle
+/// total by 600,000, with 32-bit division only (no `__aeabi_uldivmod`).
 struct MsClock {
     last: u32,
-    cycles: u64,
+    ms: u32,
+    /// Cycles into the current millisecond, < `CYCLES_PER_MS`.
+    rem: u32,
 }
+
+const CYCLES_PER_MS: u32 = 600_000;
 
 impl MsClock {
     fn new(now: u32) -> Self {
-        Self { last: now, cycles: 0 }
+        Self { last: now, ms: 0, rem: 0 }
     }
     fn now_ms(&mut self, now: u32) -> u32 {
-        self.cycles = self.cycles.wrapping_add(u64::from(now.wrapping_sub(self.last)));
+        let d = now.wrapping_sub(self.last);
         self.last = now;
-        (self.cycles / 600_000) as u32
+        let mut whole = d / CYCLES_PER_MS;
+        // < 2 x 600,000: no overflow
+        self.rem += d % CYCLES_PER_MS;
+        if self.rem >= CYCLES_PER_MS {
+            self.rem -= CYCLES_PER_MS;
+            whole += 1;
+        }
+        self.ms = self.ms.wrapping_add(whole);
+        self.ms
     }
 }
 

@@ -106,7 +106,7 @@ impl FrameCapture {
     /// About 6 x 6 bus accesses; no waiting.
     pub fn sample(&self, cycles: &CycleCounter) -> [Snapshot; 6] {
         let mut out = [Snapshot { ief: false, input_high: false, capt: 0, cntr: 0, cycles: 0, consistent: false }; 6];
-        for (o, f) in out.iter_mut().zip(self.channels) {
+        for (o, f) in out.iter_mut().zip(self.channels.iter()) {
             let rb = self.block(f.module);
             let ch = f.channel;
             let s1: u16 = per_channel!(rb, ch, read_reg, [SCTRL0, SCTRL1, SCTRL2, SCTRL3]);
