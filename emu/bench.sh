@@ -108,7 +108,7 @@ fi
 # simulator's speed.
 echo "==> release image (firmware/build.sh: the USB build as flashed)"
 (cd "$ROOT" && SKIP_REPRO=1 firmware/build.sh) >"$OUT/firmware_build.txt" 2>&1 || true
-IMAGE_TXT="$(sed -n '/^== memory use/,/^panic-path check/p' "$OUT/firmware_build.txt")"
+IMAGE_TXT="$(sed -n '/^== memory use/,/^panic-path/p' "$OUT/firmware_build.txt")"
 [ -n "$IMAGE_TXT" ] || IMAGE_TXT="(firmware/build.sh failed; see $OUT/firmware_build.txt)"
 IMAGE_BYTES=$(grep -oE 'flash image \(loadable bytes\): [0-9]+' "$OUT/firmware_build.txt" | grep -oE '[0-9]+$' || echo "?")
 TICK_STACK=$(grep -oE 'worst-case tick stack[^:]*: [0-9]+ bytes \+ [0-9]+ exception frame = [0-9]+' "$OUT/firmware_build.txt" | grep -oE '[0-9]+$' || echo "?")

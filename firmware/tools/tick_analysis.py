@@ -12,7 +12,13 @@ Usage: tick_analysis.py <objdump> <elf> <root-symbol> [stack-sizes-elf]
    panic_bounds_check, unwrap_failed, expect_failed, slice_*_fail, panic_fmt,
    the #[panic_handler] `panic`), or if an indirect call is reachable (unknown
    target: cannot be proved panic-free).
-3. Stack: if a second ELF built with `-Z emit-stack-sizes` is given, reads its
+3. 64-bit division check (issue 14): FAILS if a 64-bit (or 128-bit)
+   division helper of compiler-builtins (`__aeabi_uldivmod`,
+   `__aeabi_ldivmod`, `__udivmoddi4`, `__divmoddi4`, `__udivti3`, ...) is
+   reachable from the root: the Cortex-M7 divides 32-bit numbers in
+   hardware, wider ones in a software loop of hundreds of instructions.
+   Prints every function reachable from the root.
+4. Stack: if a second ELF built with `-Z emit-stack-sizes` is given, reads its
    .stack_sizes section (address -> frame bytes) and prints the worst path
    from the root in that ELF (same sources, nightly codegen: an estimate of
    the stable image, stated as such), plus the 104-byte exception frame
@@ -24,6 +30,10 @@ import re, subprocess, sys
 PANIC = ("core::panicking", "rust_begin_unwind", "panic_bounds_check", "unwrap_failed",
          "expect_failed", "slice_start_index_len_fail", "slice_end_index_len_fail",
          "slice_index_order_fail", "panic_fmt", "panic_const", "::panic")
+
+WIDE_DIVISION = ("__aeabi_uldivmod", "__aeabi_ldivmod", "__udivmoddi4", "__divmoddi4", "__udivdi3",
+                 "__divdi3", "__umoddi3", "__moddi3", "__udivti3", "__divti3", "__umodti3", "__modti3",
+                 "__udivmodti4", "__divmodti4", "compiler_builtins::int::specialized_div_rem")
 
 def disasm(objdump, elf):
     out = subprocess.run([objdump, "-d", "-C", "--no-show-raw-insn", elf],
@@ -162,7 +172,17 @@ def main():
     ind = [(f, i) for f in sorted(r) for i in funcs[f]["indirect"]]
     for f, i in ind:
         print(f"  indirect branch in {f}: {i}")
+    for f in sorted(r):
+        print(f"  reaches {f}")
     ok = True
+    wide = sorted(f for f in r if any(d in f for d in WIDE_DIVISION))
+    if wide:
+        ok = False
+        print("64-BIT DIVISION reachable from the tick handler:")
+        for f in wide:
+            print("   " + chain(f))
+    else:
+        print("64-bit division check: no 64/128-bit division helper reachable")
     if bad:
         ok = False
         print("PANIC PATH reachable from the tick handler:")
@@ -186,7 +206,7 @@ def main():
                 print(f"  no .stack_sizes entry (counted 0): {sorted(unknown)}")
         else:
             print("stack: no .stack_sizes data (nightly build missing)")
-    print("panic-path check:", "PASS" if ok else "FAIL")
+    print("panic-path and division check:", "PASS" if ok else "FAIL")
     sys.exit(0 if ok else 1)
 
 main()
