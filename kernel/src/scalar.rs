@@ -486,14 +486,15 @@ fn fx_from_counts_bits(n: i32, k: i64) -> i32 {
     }
 }
 
-/// `bits * k` with 72 fractional bits dropped, truncated toward zero and
-/// saturated (formerly in i128): `(hi 2^32 + lo) >> 72 = (hi + lo >> 32) >> 40`
+/// `bits * k` with 72 fractional bits dropped, truncated toward zero
+/// (formerly in i128): `(hi 2^32 + lo) >> 72 = (hi + lo >> 32) >> 40`
 /// (floor of a floor), and `hi + (lo >> 32) < 2^63` cannot overflow.
 #[inline(always)]
 fn fx_to_rate(bits: i32, k: i64) -> i32 {
     let (hi, lo) = mag_product(bits.unsigned_abs(), k.unsigned_abs());
-    let mag = hi.wrapping_add(lo >> 32) >> (FX_FRAC + FX_FRAC + WIDE_EXTRA - 32);
-    let mag = if mag > i32::MAX as u64 { i32::MAX } else { mag as i32 };
+    // The product is below 2^94, so `mag` is below 2^22 and fits an i32
+    // (the former code's saturation at i32::MAX could never apply).
+    let mag = (hi.wrapping_add(lo >> 32) >> (FX_FRAC + FX_FRAC + WIDE_EXTRA - 32)) as i32;
     if (bits < 0) != (k < 0) {
         mag.wrapping_neg()
     } else {
