@@ -45,16 +45,16 @@ fi
 # profile's opt-level 3. Passed on the command line, not in Cargo.toml, so the
 # host's release builds (the simulator) are unchanged.
 #
-# OFF by default (IMAGE_SIZE_OPT=1 turns it on): with it, boot ran slower
-# code before the first tick, which moved the encoder frames' phase at the
-# kernel's first reading; on the twin a 9.5 %-fast MT6816 (J4) was then
-# read off by 246 counts before its decoder had measured the frame period
-# (ENCODER_JUMP at boot, twin/tests/defects.rs defect6). The decoder now
-# reports such readings as lost and the root calibrates every encoder's
-# period at boot (hal_imxrt::pure::frame, firmware::root::CALIBRATION_MS);
-# turning this on is a separate decision.
+# ON by default since session 8 (IMAGE_SIZE_OPT=0 turns it off; the twin
+# runs the image built this way). It was off while the boot timing it moves
+# decided whether a 9.5 %-fast MT6816 was mis-read before its decoder had
+# measured the frame period (ENCODER_JUMP at boot on the twin, defect 6);
+# the decoder now reports no such reading and the root calibrates every
+# encoder's period at boot (hal_imxrt::pure::frame,
+# firmware::root::CALIBRATION_MS), and the twin runs defect 6 at eight boot
+# phases.
 IMAGE_PROFILE=()
-if [ "${IMAGE_SIZE_OPT:-0}" = 1 ]; then
+if [ "${IMAGE_SIZE_OPT:-1}" = 1 ]; then
   IMAGE_PROFILE=(--config 'profile.release.package."*".opt-level="z"'
                  --config 'profile.release.package.protocol.opt-level="z"')
 fi
