@@ -264,6 +264,7 @@ $(for f in generic cm7; do echo "${TABLE[$f]}"; done | awk -F'|' '
     printf("| max / min, f32 | %s | %s | <= 1.05 |\n", r[1], r[2]);
     printf("| instructions per tick while following a stream, f32, median / max | %s / %s | %s / %s | <= 1,000 |\n", tmd[1], tmx[1], tmd[2], tmx[2]);
     printf("| the same, fixed point, median / max | %s / %s | %s / %s | <= 1.2 x f32 |\n", umd[1], umx[1], umd[2], umx[2]);
+    printf("| fixed point / f32, streamed tick, median | %.2f | %.2f | <= 1.2 |\n", umd[1] / tmd[1], umd[2] / tmd[2]);
     printf("| fixed point (I8F24) tick, median / max | %s / %s | %s / %s | <= 1.2 x f32 |\n", fmd[1], fmx[1], fmd[2], fmx[2]);
     printf("| instructions per parsed driver frame, f32 / fixed, median | %s / %s | %s / %s | <= 25 per byte |\n", pmd[1], qmd[1], pmd[2], qmd[2]);
   }' | sed 's/  */ /g')
@@ -279,6 +280,45 @@ instruction counted as one cycle, per translated block):
 \`\`\`text
 $TWIN_LINE
 \`\`\`
+
+## Goals not met: the figures and the reasons
+
+**A tick of at most 1,000 instructions, the same in every state (max/min <= 1.05): not met.** The
+figures are the rows above; the streamed tick is the costliest steady state (Stopping costs about
+the same). Per axis, while following a stream, the tick runs (profile above): the unwrap, observer
+and plausibility checks (\`sense_and_estimate\`), the braking-distance interpolator
+(\`Interpolator::advance\`: three candidate speeds clamped with minima and maxima, up to three
+braking tests), the control law and the acceleration clamp (\`follow\`), the following-error check
+(\`following\`) and the supervisor's checks (\`check\`: velocity saturation, runaway, limits). The
+minima, maxima and selects alone are about a third of the streamed tick (about 16 minima/maxima and
+10 selects per axis; IEEE minNum/maxNum, because the clamps rely on a NaN operand being ignored).
+1,000 instructions for six axes leaves about 165 per axis for all of it: that needs a different
+interpolator (fewer candidates, per-segment constants computed once per target, not per tick),
+i.e. a change to code that the SMT proofs, the Kani harnesses and the mutation run cover. Not
+attempted in issue 14.
+Constancy: each tick does the work of its mode (Operational and Stopping interpolate and control;
+Boot, Unhomed, SoftEstop and Fault sense, estimate and check). A constant tick would run the
+Operational path in every mode and discard it, raising every idle tick to the streamed cost; the
+average was not traded for a constant. What the 1 kHz deadline needs is a bounded maximum: the whole
+tick interrupt on the twin (above) at its maximum, divided by 600 MHz at one instruction per cycle
+(an estimate), is a small fraction of the 1 ms period, and a tick that overruns latches
+\`TickOverrun\` (SR-21 in SAFETY.md).
+
+**Release image of at most 64 KiB: not met** (the figure above; where the bytes go: the per-crate
+table below). Fixed or nearly fixed parts: the Teensy boot header (\`.boot\`, 8 KiB), the USB device
+stack (\`usb_device\`, \`imxrt_usbd\`, \`usbd_serial\`: about 8 KiB), the protocol's parsers and report
+formatting for both dialects (about 10 KiB at opt-level "z"), the tick at opt-level 3 (the kernel's
+tick inlined into \`firmware\`'s \`Controller::kernel_step\`, about 13 KiB, most of that crate's share),
+and \`compiler_builtins\` (about 7 KiB: soft f64 for the parameters the kernel derives at boot,
+\`memcpy\`). Measured alternatives (issue 14 closing note): \`-C target-cpu=cortex-m7\`
+(FPv5, hardware f64) gave a *larger* image (111,992 B against 107,520 B at the same revision:
+more unrolling at opt-level 3, though \`compiler_builtins\` shrinks from 6.9 to 4.2 KiB);
+opt-level "z" for the crates outside the tick is on since session 8 (\`firmware/build.sh\`,
+\`IMAGE_SIZE_OPT\`; 96,572 B against 107,160 B at 6712f8d). Below 64 KiB would need dropping
+functions (one of the two protocol dialects' formatting, the USB CDC port in favour of Serial1 only),
+which the drop-in requirement rules out.
+
+**Fuzzing to 10^8 executions**: see docs/FUZZING.md (the long run and the nightly job).
 
 ## The release image (\`firmware/build.sh\`)
 
