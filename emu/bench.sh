@@ -314,14 +314,15 @@ tick interrupt on the twin (above) at its maximum, divided by 600 MHz at one ins
 **Release image of at most 64 KiB: not met** (the figure above; where the bytes go: the per-crate
 table below). Fixed or nearly fixed parts: the Teensy boot header (\`.boot\`, 8 KiB), the USB device
 stack (\`usb_device\`, \`imxrt_usbd\`, \`usbd_serial\`: about 8 KiB), the protocol's parsers and report
-formatting for both dialects (about 10 KiB at opt-level "z"), the tick at opt-level 3 (the kernel's
+formatting for both dialects (about 20 KiB; about 10 KiB at opt-level "z"), the tick at opt-level 3 (the kernel's
 tick inlined into \`firmware\`'s \`Controller::kernel_step\`, about 13 KiB, most of that crate's share),
 and \`compiler_builtins\` (about 7 KiB: soft f64 for the parameters the kernel derives at boot,
 \`memcpy\`). Measured alternatives (issue 14 closing note): \`-C target-cpu=cortex-m7\`
 (FPv5, hardware f64) gave a *larger* image (111,992 B against 107,520 B at the same revision:
 more unrolling at opt-level 3, though \`compiler_builtins\` shrinks from 6.9 to 4.2 KiB);
-opt-level "z" for the crates outside the tick is on since session 8 (\`firmware/build.sh\`,
-\`IMAGE_SIZE_OPT\`; 96,572 B against 107,160 B at 6712f8d). Below 64 KiB would need dropping
+opt-level "z" for the crates outside the tick (\`firmware/build.sh\` \`IMAGE_SIZE_OPT=1\`) gives
+96,572 B against 107,160 B at 6712f8d and passes every twin test, but its image is not reproducible
+across build directories (firmware/README.md), so it is off. Below 64 KiB would need dropping
 functions (one of the two protocol dialects' formatting, the USB CDC port in favour of Serial1 only),
 which the drop-in requirement rules out.
 
