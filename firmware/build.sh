@@ -45,16 +45,18 @@ fi
 # profile's opt-level 3. Passed on the command line, not in Cargo.toml, so the
 # host's release builds (the simulator) are unchanged.
 #
-# OFF by default (IMAGE_SIZE_OPT=1 turns it on; 96,572 B against 107,160 B
-# at 6712f8d). Its first reason is gone: it moved the boot timing, and a
-# 9.5 %-fast MT6816 was then mis-read before its decoder had measured the
-# frame period (twin defect 6); the decoder now reports no such reading and
-# the root calibrates every encoder's period at boot, and the twin passes
-# every test on this image. The remaining reason: the image built with it
-# is NOT reproducible across build directories (session 8, a fresh clone's
-# test command: two 32-bit words of `init_root`'s stack-slot code differ
-# between this directory's build and the second build below), and a
-# flashed image must be reproducible. Find the directory dependence first.
+# OFF by default (IMAGE_SIZE_OPT=1 turns it on): with it, boot runs slower
+# code before the first tick, which moves the encoder frames' phase at the
+# kernel's first reading; on the twin a 9.5 %-fast MT6816 (J4) was then
+# read off by 246 counts before its decoder had measured the frame period
+# (ENCODER_JUMP at boot, twin/tests/defects.rs defect6). The decoder must
+# report such readings as lost before this can be shipped (issue 14 notes).
+# Session 8 made the decoder refuse such readings and calibrate every
+# encoder's period at boot (37a85fe, 6712f8d; the twin then passed every
+# test with this option on), but reverted both: the image built at those
+# commits was not reproducible across build directories (the test
+# command's check below, on a fresh clone: two words of init_root's code
+# differed), with this option off and on. Re-land once that is found.
 IMAGE_PROFILE=()
 if [ "${IMAGE_SIZE_OPT:-0}" = 1 ]; then
   IMAGE_PROFILE=(--config 'profile.release.package."*".opt-level="z"'

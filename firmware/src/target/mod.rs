@@ -121,10 +121,6 @@ impl TickBoard for Teensy {
         self.cycles.wait_since(t, 600_000);
         self.wdog.feed();
     }
-    fn can_poll_capture(&self) -> bool {
-        // `capture` reads the QuadTimer registers and CYCCNT at the moment
-        true
-    }
 }
 
 /// Everything the tick touches. Lives in DTCM (`.bss`, teensy4-bsp's
@@ -303,12 +299,9 @@ fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static 
     // two ends go to the tick (controller) and the main loop (host).
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
     let (mut controller, host) = root::new(&PAROL6_VALIDATED, link, HOST_CFG);
-    // Boot self-test: every encoder's frame period is measured by polling
-    // the capture channels (at most `CALIBRATION_MS`), then the encoders
-    // and limit inputs are sampled for `SELF_TEST_MS` (longer, at most
-    // `SETTLE_MAX_MS`, while an encoder has no reading); the warm channels
-    // go to the tick, so the first kernel readings initialise the
-    // observers at the real angles (nothing moves).
+    // Boot self-test: the encoders and limit inputs are sampled for
+    // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
+    // readings initialise the observers at the real angles (nothing moves).
     let boot = controller.boot(&mut board, marker, watchdog_reset);
     // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
     // can observe `TICK_CTX` while it is written.
