@@ -320,9 +320,11 @@ and \`compiler_builtins\` (about 7 KiB: soft f64 for the parameters the kernel d
 \`memcpy\`). Measured alternatives (issue 14 closing note): \`-C target-cpu=cortex-m7\`
 (FPv5, hardware f64) gave a *larger* image (111,992 B against 107,520 B at the same revision:
 more unrolling at opt-level 3, though \`compiler_builtins\` shrinks from 6.9 to 4.2 KiB);
-opt-level "z" for the crates outside the tick (\`firmware/build.sh\` \`IMAGE_SIZE_OPT=1\`) gives
-96,572 B against 107,160 B at 6712f8d and passes every twin test, but its image is not reproducible
-across build directories (firmware/README.md), so it is off. Below 64 KiB would need dropping
+opt-level "z" for the crates outside the tick (\`firmware/build.sh\` \`IMAGE_SIZE_OPT=1\`) gave
+96,572 B against 107,160 B at 6712f8d, where the twin passed every test with it; that revision's
+boot calibration of the encoder decoders was reverted (its image was not reproducible across build
+directories, firmware/README.md), and without it the option moves the boot timing enough for the
+twin to mis-read a 9.5 %-fast encoder (defect 6), so it is off. Below 64 KiB would need dropping
 functions (one of the two protocol dialects' formatting, the USB CDC port in favour of Serial1 only),
 which the drop-in requirement rules out.
 
