@@ -121,7 +121,7 @@ fn record<S: Bits>(v: &Validated) -> (Vec<u8>, u32, Vec<State>) {
     }
     assert_eq!(k.state(), State::Operational, "homing did not finish");
     assert!(k.homing_phases().iter().all(|p| *p == Phase::Done || *p == Phase::Idle));
-    for _ in 0..20 {
+    for _ in 0..SETTLE_TICKS {
         last_pos = step(&mut k, &mut plant, None, &none);
     }
     // Streamed trajectory: every joint goes 0.2 rad toward the middle of its
@@ -205,6 +205,9 @@ const SCENARIO_PATH: [State; 8] = [
     State::Operational,
 ];
 
+/// Ticks at rest between the end of homing and the stream's first frame.
+const SETTLE_TICKS: usize = 20;
+
 /// The runs of equal consecutive states.
 fn state_runs(states: &[State]) -> Vec<State> {
     let mut runs: Vec<State> = Vec::new();
@@ -218,11 +221,12 @@ fn state_runs(states: &[State]) -> Vec<State> {
 
 /// The ticks of the streamed trajectory: the first Operational run (after
 /// homing, until the command timeout starts the soft stop), less the tick
-/// that ended homing and the 20 ticks at rest before the stream's first frame.
+/// that ended homing and the [`SETTLE_TICKS`] at rest before the stream's
+/// first frame.
 fn stream_range(states: &[State]) -> std::ops::Range<usize> {
     let first_op = states.iter().position(|s| *s == State::Operational).unwrap_or(0);
     let op_len = states[first_op..].iter().take_while(|s| **s == State::Operational).count();
-    first_op + 21..first_op + op_len
+    first_op + 1 + SETTLE_TICKS..first_op + op_len
 }
 
 /// Fails unless the replayed states follow [`SCENARIO_PATH`].
@@ -310,8 +314,7 @@ fn frames(data: &[u8]) -> Result<Vec<(usize, bool)>, String> {
 
 /// Replays a scenario on the host: the state after each tick, and for each
 /// frame whether the parser accepted it as a motion frame.
-type Classified = (Vec<State>, Vec<bool>);
-fn classify<S: Bits>(data: &[u8]) -> Result<Classified, String> {
+fn classify<S: Bits>(data: &[u8]) -> Result<(Vec<State>, Vec<bool>), String> {
     let mut rd = Reader::new(data).map_err(|e| format!("{e:?}"))?;
     let (mut k, authority) = Kernel::<S>::new(&PAROL6_VALIDATED);
     let parser = Parser::<S>::new(&PAROL6_VALIDATED, DialectLock::Auto);
