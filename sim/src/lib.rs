@@ -17,4 +17,6 @@ pub mod rng;
 pub mod root;
 pub mod runner;
 pub mod scenario;
+pub mod stream;
 pub mod svg;
+pub mod trace;

@@ -151,6 +151,10 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
         };
         let t0 = Instant::now();
         let mut r = run(&PAROL6_VALIDATED, sc, opts, &mut progress);
+        std::fs::create_dir_all(out).with_context(|| format!("creating report directory {}", out.display()))?;
+        let svg = out.join(format!("{}.svg", r.name));
+        std::fs::write(&svg, sim::svg::plot(&r)).with_context(|| format!("writing {}", svg.display()))?;
+        r.plot = Some(svg);
         r.write(out)?;
         let took = t0.elapsed().as_secs_f64();
         // The trace and the line log are in the files now; the summary

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use kernel::config::AXES;
 
 use crate::encoder::DecodeStats;
-use crate::runner::Sample;
+use crate::trace::Sample;
 
 /// Tracking error statistics of one joint.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -251,13 +251,10 @@ impl Report {
         s
     }
 
-    /// Writes `<dir>/<name>.txt`, `<dir>/<name>.log` (every line sent) and
-    /// `<dir>/<name>.svg`.
-    pub fn write(&mut self, dir: &Path) -> Result<()> {
+    /// Writes `<dir>/<name>.txt` and `<dir>/<name>.log` (every line sent);
+    /// the text names [`Report::plot`] when the caller has written one.
+    pub fn write(&self, dir: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating report directory {}", dir.display()))?;
-        let svg = dir.join(format!("{}.svg", self.name));
-        std::fs::write(&svg, crate::svg::plot(self)).with_context(|| format!("writing {}", svg.display()))?;
-        self.plot = Some(svg);
         let txt = dir.join(format!("{}.txt", self.name));
         std::fs::write(&txt, self.text()).with_context(|| format!("writing {}", txt.display()))?;
         let mut log = String::with_capacity(self.lines.iter().map(|(_, l)| l.len() + 9).sum());
