@@ -7,7 +7,10 @@
 //!
 //! * [`pure`] — all arithmetic and tables, no registers, no dependencies,
 //!   host-tested with `cargo test -p hal-imxrt`:
-//!   [`pure::encoder`] (MT6816 PWM decode + continuity tracker),
+//!   [`pure::frame`] (edge-aligned whole-frame MT6816 capture decode and
+//!   frame-period measurement), [`pure::encoder`] (MT6816 readings, the
+//!   decode's definition, the continuity tracker), [`pure::channel`]
+//!   (decoder + tracker: one encoder input as the firmware ships it),
 //!   [`pure::clock`] (PIT load, QuadTimer prescaler, DIR settle, watchdog),
 //!   [`pure::uart`] (LPUART OSR/SBR search), [`pure::step`] (step rate ->
 //!   FlexPWM period/prescaler), [`pure::pins`] (Teensy 4.1 pin database and
@@ -45,7 +48,7 @@
 //! states the assumed tree. `periph::clocks` only selects PERCLK and
 //! UART_CLK_ROOT (both 24 MHz from the crystal) and opens clock gates.
 //!
-//! # Corrections to the brief / C++ design found while writing this crate
+//! # Register facts the C++ design has wrong
 //!
 //! * QuadTimer gated count is `CTRL[CM] = 0b011` ("count rising edges of
 //!   primary source while secondary input high", imxrt-ral field docs from
@@ -53,8 +56,12 @@
 //!   until compare", which does not gate. `periph` uses 3.
 //! * Serial1 on pins 0/1 is **LPUART6** (pads GPIO_AD_B0_03/02, ALT2), not
 //!   LPUART1 (which is on pins 24/25, here limit switches).
-//! * A duty window shorter than (or not a whole number of) frames has a phase
-//!   error of up to ~+-122 counts; see [`pure::encoder`].
+//! * An MT6816 is read over whole frames, edge-aligned (QuadTimer gated count
+//!   plus capture on the rising edge, [`pure::frame`]), not as a duty average
+//!   over a fixed window: a window that is not a whole number of frames
+//!   has a phase error (the part of a frame it misses may be high or low),
+//!   and one that spans the 0/4095 wrap reads a valid-looking angle in
+//!   between.
 
 pub mod pure;
 

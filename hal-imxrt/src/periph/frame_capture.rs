@@ -5,11 +5,11 @@
 //! Per channel: `CTRL[CM] = 0b011` (count IPG/8 while the pin is high),
 //! `PCS = IPG/8`, `SCS` = own input, `SCTRL[CAPTURE_MODE] = 0b01` (rising
 //! edge), `IPS = 0`, no interrupt enables, and the input filter on
-//! ([`FILT`], issue 11 defect 6).
+//! ([`FILT`]).
 //!
 //! *Bench*: that `CAPT` is loaded on the rising edge in gated-count mode and
 //! `IEF` set; that `SCTRL[INPUT]` follows the pin; the QuadTimer3 select
-//! inputs for pins 14/15/19 (as for [`super::encoder`]).
+//! inputs for pins 14/15/19 (see [`crate::pure::pins`]).
 
 use super::cycles::CycleCounter;
 use crate::pure::clock::{qtimer_pcs_for_divider, QTIMER_DIVIDER};

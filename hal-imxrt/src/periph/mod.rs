@@ -16,7 +16,6 @@
 
 pub mod clocks;
 pub mod cycles;
-pub mod encoder;
 pub mod frame_capture;
 pub mod gpio;
 pub mod iomux;

@@ -1,4 +1,5 @@
-//! MT6816 PWM-output decoding, integer-only and wrap-safe.
+//! MT6816 PWM readings: what a reading is, the decode of a measured high
+//! time over a measured frame period, and the per-axis continuity tracker.
 //!
 //! # Signal
 //!
@@ -7,71 +8,45 @@
 //! (0..=4095) clocks, then LOW to the end of the frame. So the duty is
 //! `(16 + count) / 4119`, in `[16/4119, 4111/4119]`.
 //!
-//! # Measurement
+//! # Measurement: whole frames, edge-aligned
 //!
-//! A QuadTimer channel in gated-count mode (`CTRL[CM] = 0b011`, "count rising
-//! edges of primary source while secondary input high") counts IPG/8 =
-//! 18.75 MHz ticks (53.33 ns = 32 CPU cycles) while the encoder pin is high.
-//! Once per control tick the firmware samples the 16-bit counter and the 32-bit
-//! DWT CYCCNT. [`WindowSampler`] turns two samples into a window
-//! (`high_ticks`, `elapsed_cycles`) with explicit wrap handling of both
-//! counters, and [`decode_window`] turns a window into a count:
+//! A QuadTimer channel counts IPG/8 = 18.75 MHz ticks (53.33 ns = 32 CPU
+//! cycles) while the encoder pin is high and captures that counter on every
+//! rising edge, the start of a frame; the difference of two captures is the
+//! high time of exactly one complete frame ([`super::frame`] has the method,
+//! the frame-period measurement and the decoder the tick runs,
+//! `periph::frame_capture` the register side). A reading never mixes two
+//! frames, so it has no phase error, and a frame on one side of the
+//! 0/4095 wrap cannot blend with one on the other side into a
+//! valid-looking angle near 2048 (the defect of a duty average over a
+//! fixed window, which a range check cannot detect).
 //!
-//! ```text
-//! high_clocks = 4119 * high_ticks * 32 / elapsed_cycles   (PWM clocks per frame)
-//! count       = round(high_clocks) - 16
-//! ```
+//! # Protection in two layers
 //!
-//! # Why a duty average is not wrap-safe, and what this module does about it
-//!
-//! A window that contains parts of two frames measures a weighted mix of their
-//! duties. If the two frames are on either side of the 0/4095 wrap (e.g. 4090
-//! then 3), the mix is anywhere in between (near 2048 = pi for an even mix):
-//! a *valid-looking* duty. No range check on a single window can detect it;
-//! the C++ firmware's 10 ms average had exactly this defect.
-//!
-//! Protection is therefore in two layers:
-//!
-//! 1. [`decode_window`] (stateless) rejects what one window can prove wrong:
-//!    too short/too long windows (the 16-bit counter can wrap unobservably
-//!    after 65536 ticks = 3.495 ms), no high time (stuck low / no signal), no
-//!    low time (stuck high), and duty outside `[16, 4111]` clocks by more than
-//!    a tolerance.
-//! 2. [`Tracker`] (per axis) accepts a count only if it is physically reachable
-//!    from the last accepted count: circular distance at most
-//!    `max_step_counts` per elapsed tick. A wrap-mixed window lands far from
-//!    both neighbours and is reported as `Lost(Inconsistent)`; the unwrapper
+//! 1. [`decode_window`] (stateless; the tick runs its 32-bit equal
+//!    [`super::frame::decode_frame`]) rejects what one frame can prove
+//!    wrong: a period outside the accepted range, no high time (stuck low /
+//!    no signal), no low time (stuck high), and a duty outside `[16, 4111]`
+//!    clocks by more than a tolerance.
+//! 2. [`Tracker`] (per axis) accepts a count only if it is physically
+//!    reachable from the last accepted count: circular distance at most
+//!    `max_step_counts` per elapsed tick. A reading that is not (a glitch, a
+//!    corrupted capture) is reported as `Lost(Inconsistent)`; the unwrapper
 //!    downstream therefore never sees a jump larger than `max_step_counts`
 //!    (< 2048), so it cannot lose a turn. An outage longer than
 //!    `max_lost_ticks` latches `Lost(Unrecoverable)` until [`Tracker::reset`]
 //!    (re-home), so a long stream of self-consistent but wrong readings can
 //!    never be adopted silently.
 //!
-//! # Error budget (1 ms window, 250 ns PWM clock)
+//! # Error budget (one frame, 250 ns PWM clock)
 //!
-//! * Quantisation: the gate is sampled by the 53.33 ns tick, so each high pulse
-//!   is measured to +-1 tick; a 1 ms window holds at most 2 pulse ends:
-//!   +-2 ticks = +-107 ns = +-0.43 PWM clock = +-0.43 count. CYCCNT (1.67 ns)
-//!   and the read skew between CNTR and CYCCNT (a few bus cycles, < 1 tick)
-//!   add well under 0.5 count. Total quantisation: < +-1 count.
-//! * **Phase (dominant)**: a 1 ms window covers 0.971 of a 1029.75 us frame.
-//!   The uncovered 29.75 us may be high or low depending on where the window
-//!   falls in the frame, so a single window's count is off by up to
-//!   `4119 * 29.75 / 1000 * max(d, 1-d)` ~ +-61 counts at mid-scale and
-//!   ~ +-122 counts near the ends, beating at |1000 - 971.1| = 28.9 Hz. This
-//!   is intrinsic to a sub-frame (or any non-integer-frame) duty window, the
-//!   C++ 10 ms window had the same magnitude. It is bounded, not a wrap error;
-//!   it is the reason `max_step_counts` defaults to 256. Near the ends of the
-//!   range a 1 ms window can also miss the whole 4 us start pulse (count ~ 0)
-//!   or the whole 2 us low gap (count ~ 4095) in about 3 % of windows; those
-//!   windows are reported as `Lost(NoSignal)` / `Lost(StuckHigh)`.
-//! * Removing the phase error needs edge-aligned measurement (QuadTimer input
-//!   capture on the falling edge gives the exact high time of one pulse) plus
-//!   a frame-period estimate; [`decode_window`] is already the right decoder
-//!   for a window of exactly one frame. Not implemented here: it needs bench
-//!   work on the capture/IEF behaviour.
-
-use super::clock::CYCLES_PER_QTIMER_TICK;
+//! The gate is sampled by the 53.33 ns tick, so each of the frame's two
+//! pulse ends is measured to +-1 tick: +-107 ns = +-0.43 PWM clock =
+//! +-0.43 count; the frame period is measured to 32 cycles over up to 64
+//! frames. Once the period is measured a reading is exact to +-1 count
+//! (`frame::tests`). Before that, the nominal period stands in for the
+//! sensor's own, and a reading is off by the relative period error times
+//! `16 + count` (see [`super::frame`], "Frame period").
 
 /// PWM clocks per MT6816 frame.
 pub const FRAME_CLOCKS: u32 = 4119;
@@ -85,22 +60,21 @@ pub const COUNTS_PER_REV: u32 = 4096;
 /// Why a reading is not a count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LossReason {
-    /// No high time in the window: pin stuck low, encoder unpowered or
+    /// No high time in the frame: pin stuck low, encoder unpowered or
     /// disconnected (input pad has a pull-down).
     NoSignal,
-    /// No low time in the window: pin stuck high.
+    /// No low time in the frame: pin stuck high.
     StuckHigh,
     /// Duty outside the range an MT6816 can produce.
     DutyOutOfRange,
-    /// Window too short to contain a meaningful part of a frame.
+    /// Frame period (the measured window) shorter than the accepted range.
     WindowTooShort,
-    /// Window longer than the 16-bit counter can span unambiguously (a missed
-    /// tick): the high-tick count may have wrapped.
+    /// Frame period longer than the accepted range.
     WindowTooLong,
     /// Counter advanced more than time allows: sampling error.
     Implausible,
     /// A valid-looking count that is not physically reachable from the last
-    /// accepted count (typically a window straddling the 0/2pi wrap).
+    /// accepted count (a glitch, a corrupted capture).
     Inconsistent,
     /// No accepted count yet (start-up / after reset): collecting agreeing
     /// readings.
@@ -128,12 +102,13 @@ impl EncoderReading {
     }
 }
 
-/// Stateless decoder parameters.
+/// Stateless decoder parameters (the tick's are
+/// [`super::frame::FRAME_DECODE`]: a window of exactly one frame).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DecodeConfig {
     /// CPU cycles per QuadTimer tick (32 at 600 MHz / 18.75 MHz).
     pub cycles_per_tick: u32,
-    /// Shortest accepted window, CPU cycles.
+    /// Shortest accepted window (frame period), CPU cycles.
     pub min_window_cycles: u32,
     /// Longest accepted window, CPU cycles; must stay below 65536 ticks.
     pub max_window_cycles: u32,
@@ -144,17 +119,6 @@ pub struct DecodeConfig {
 }
 
 impl DecodeConfig {
-    /// Defaults for a 1 ms window at 600 MHz: accept 0.5 ms ..= 3 ms windows
-    /// (3 ms < 65536 ticks * 53.3 ns = 3.495 ms), 8-clock range tolerance,
-    /// 2-tick edge margin (quantisation of two pulse ends).
-    pub const DEFAULT: DecodeConfig = DecodeConfig {
-        cycles_per_tick: CYCLES_PER_QTIMER_TICK,
-        min_window_cycles: 300_000,
-        max_window_cycles: 1_800_000,
-        range_tolerance_clocks: 8,
-        edge_margin_ticks: 2,
-    };
-
     /// True if the window limits are consistent with a 16-bit counter.
     pub const fn is_valid(&self) -> bool {
         self.cycles_per_tick > 0
@@ -164,15 +128,13 @@ impl DecodeConfig {
     }
 }
 
-const _: () = assert!(DecodeConfig::DEFAULT.is_valid());
-
 /// Decode one window: `high_ticks` QuadTimer ticks of HIGH over
-/// `elapsed_cycles` CPU cycles.
+/// `elapsed_cycles` CPU cycles (for the tick, one frame over its period).
 ///
-/// For any config (one `u64` division). The tick decodes its whole frames
-/// with [`super::frame::decode_frame`], this function with
+/// For any config, with one `u64` division: the definition of the decode.
+/// The tick runs [`super::frame::decode_frame`], this function with
 /// [`super::frame::FRAME_DECODE`] on 32-bit arithmetic (equal for every
-/// input; `proofs/exhaustive`).
+/// input: `proofs/exhaustive`, `hal-imxrt/tests/frame_reference.rs`).
 pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeConfig) -> EncoderReading {
     if cfg.cycles_per_tick == 0 || elapsed_cycles < cfg.min_window_cycles {
         return EncoderReading::Lost(LossReason::WindowTooShort);
@@ -213,19 +175,6 @@ pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeCon
     EncoderReading::Count(count)
 }
 
-/// Wrap-safe difference of two samples of a free-running 16-bit counter
-/// (QuadTimer CNTR). Correct if fewer than 65536 ticks elapsed; the decoder's
-/// `max_window_cycles` guarantees that for accepted windows.
-pub const fn counter_delta_u16(prev: u16, now: u16) -> u16 {
-    now.wrapping_sub(prev)
-}
-
-/// Wrap-safe difference of two samples of the 32-bit DWT CYCCNT (wraps every
-/// 7.16 s at 600 MHz; correct for any window shorter than that).
-pub const fn cycles_delta(prev: u32, now: u32) -> u32 {
-    now.wrapping_sub(prev)
-}
-
 /// Circular distance between two counts on the 4096-count circle (0..=2048).
 pub const fn circular_distance(a: u16, b: u16) -> u16 {
     let d = (a as i32 - b as i32).rem_euclid(COUNTS_PER_REV as i32) as u16;
@@ -236,42 +185,13 @@ pub const fn circular_distance(a: u16, b: u16) -> u16 {
     }
 }
 
-/// One raw sample of an encoder channel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RawSample {
-    /// QuadTimer CNTR (gated high ticks, free running, wraps at 65536).
-    pub counter: u16,
-    /// DWT CYCCNT at the time of the read.
-    pub cycles: u32,
-}
-
-/// Turns consecutive [`RawSample`]s into windows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct WindowSampler {
-    prev: Option<RawSample>,
-}
-
-impl WindowSampler {
-    /// A sampler with no previous sample.
-    pub const fn new() -> Self {
-        Self { prev: None }
-    }
-
-    /// Feed a sample; returns `(high_ticks, elapsed_cycles)` of the window
-    /// since the previous sample, or `None` for the first sample.
-    pub fn push(&mut self, s: RawSample) -> Option<(u32, u32)> {
-        let out = self.prev.map(|p| (counter_delta_u16(p.counter, s.counter) as u32, cycles_delta(p.cycles, s.cycles)));
-        self.prev = Some(s);
-        out
-    }
-}
-
 /// Per-axis continuity tracker (see module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TrackerConfig {
-    /// Largest physically possible change between two consecutive 1 ms
-    /// windows, counts: motor speed (J3: 6 rad/s * 18.1 = 109 rad/s = 71
-    /// counts/ms) plus the phase error swing (up to ~122). Must be < 2048.
+    /// Largest accepted change per elapsed tick, counts: the fastest motor
+    /// (J3: 6 rad/s * 18.1 = 109 rad/s) turns 71 counts per 1 ms tick, and a
+    /// fresh frame after a repeated one carries two ticks of motion (142);
+    /// 256 leaves margin for both. Must be < 2048.
     pub max_step_counts: u16,
     /// Agreeing consecutive readings needed to (re)acquire.
     pub acquire_readings: u8,
@@ -306,7 +226,7 @@ enum TrackState {
     Latched,
 }
 
-/// Continuity tracker: wraps [`decode_window`] results.
+/// Continuity tracker: filters the decoder's per-tick readings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tracker {
     cfg: TrackerConfig,
@@ -387,69 +307,30 @@ impl Tracker {
     }
 }
 
-/// Exact window (CPU cycles, QuadTimer high ticks) that an ideal MT6816 at
-/// `count` produces over `frames` whole frames with the nominal 250 ns clock.
-/// Test/bench helper: a 250 ns clock is 150 CPU cycles.
-pub const fn ideal_window(count: u16, frames: u32) -> (u32, u32) {
-    let cycles = FRAME_CLOCKS * 150 * frames;
-    let high_cycles = (START_CLOCKS + count as u32) * 150 * frames;
-    (high_cycles / CYCLES_PER_QTIMER_TICK, cycles)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pure::clock::CYCLES_PER_QTIMER_TICK;
+    use crate::pure::frame::FRAME_DECODE;
 
-    const CFG: DecodeConfig = DecodeConfig::DEFAULT;
+    const CFG: DecodeConfig = FRAME_DECODE;
 
-    /// Simulated MT6816 + gated counter: high ticks in [t0, t0 + w) (CPU
-    /// cycles), with per-frame counts given by `count_of(frame_index)`.
-    fn simulate(t0: u64, w: u64, count_of: &dyn Fn(u64) -> u16) -> u32 {
-        let frame = FRAME_CLOCKS as u64 * 150;
-        let mut high = 0u64;
-        let mut f = t0 / frame;
-        while f * frame < t0 + w {
-            let start = f * frame;
-            let end = start + (START_CLOCKS as u64 + count_of(f) as u64) * 150;
-            let a = start.max(t0);
-            let b = end.min(t0 + w);
-            if b > a {
-                high += b - a;
-            }
-            f += 1;
-        }
-        (high / CYCLES_PER_QTIMER_TICK as u64) as u32
+    /// Exact window (QuadTimer high ticks, CPU cycles) of one frame of an
+    /// ideal MT6816 at `count` with the nominal 250 ns clock (150 CPU
+    /// cycles).
+    const fn ideal_frame(count: u16) -> (u32, u32) {
+        let cycles = FRAME_CLOCKS * 150;
+        let high_cycles = (START_CLOCKS + count as u32) * 150;
+        (high_cycles / CYCLES_PER_QTIMER_TICK, cycles)
     }
 
     #[test]
-    fn whole_frame_windows_decode_exactly_every_count() {
+    fn whole_frames_decode_exactly_every_count() {
         for count in 0..=MAX_COUNT {
-            let (h, e) = ideal_window(count, 1);
+            let (h, e) = ideal_frame(count);
             let got = decode_window(h, e, &CFG);
             // quantisation of one 53 ns tick < 0.25 count
             assert_eq!(got, EncoderReading::Count(count), "count {count}");
-        }
-    }
-
-    #[test]
-    fn duty_extremes() {
-        let (h, e) = ideal_window(0, 1);
-        assert_eq!(decode_window(h, e, &CFG), EncoderReading::Count(0));
-        let (h, e) = ideal_window(4095, 1);
-        assert_eq!(decode_window(h, e, &CFG), EncoderReading::Count(4095));
-        // 1 ms window fully inside a count-0 frame's pulse+low: +-122 bound
-        for start_us in (0..1029).step_by(7) {
-            let t0 = start_us * 600;
-            let h = simulate(t0, 600_000, &|_| 0);
-            match decode_window(h, 600_000, &CFG) {
-                EncoderReading::Count(c) => assert!(c <= 125, "{c}"),
-                EncoderReading::Lost(r) => assert_eq!(r, LossReason::NoSignal),
-            }
-            let h = simulate(t0, 600_000, &|_| 4095);
-            match decode_window(h, 600_000, &CFG) {
-                EncoderReading::Count(c) => assert!(c >= 4095 - 125, "{c}"),
-                EncoderReading::Lost(r) => assert_eq!(r, LossReason::StuckHigh),
-            }
         }
     }
 
@@ -464,41 +345,14 @@ mod tests {
 
     #[test]
     fn out_of_range_duty() {
-        // ~1 clock of high per frame (below the 16-clock start pulse - 8)
+        // ~5 clocks of high per frame (below the 16-clock start pulse - 8)
         let e = FRAME_CLOCKS * 150;
         let h = 5 * 150 / 32;
         assert_eq!(decode_window(h, e, &CFG), EncoderReading::Lost(LossReason::DutyOutOfRange));
-        // 4118 of 4119 clocks high: above 4111 + 8? no: 4118 < 4119 -> range
-        let h = (4118 * 150 - 4 * 32) / 32; // just inside
-        assert!(matches!(decode_window(h, e, &CFG), EncoderReading::Count(4095)));
-    }
-
-    #[test]
-    fn phase_error_bounded_for_1ms_windows() {
-        for count in (0..=MAX_COUNT).step_by(97) {
-            for start_us in (0..1030).step_by(13) {
-                let h = simulate(start_us * 600, 600_000, &|_| count);
-                if let EncoderReading::Count(c) = decode_window(h, 600_000, &CFG) {
-                    assert!(circular_distance(c, count) <= 125, "count {count} got {c}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn counter_wraparound() {
-        assert_eq!(counter_delta_u16(65_000, 500), 1_036);
-        assert_eq!(cycles_delta(u32::MAX - 99, 500), 600);
-        let mut s = WindowSampler::new();
-        assert_eq!(s.push(RawSample { counter: 65_530, cycles: u32::MAX - 299_999 }), None);
-        let (h, e) = ideal_window(2000, 1);
-        let got = s.push(RawSample {
-            counter: 65_530u16.wrapping_add(h as u16),
-            cycles: (u32::MAX - 299_999).wrapping_add(e),
-        });
-        assert_eq!(got, Some((h, e)));
-        let (h, e) = got.unwrap();
-        assert_eq!(decode_window(h, e, &CFG), EncoderReading::Count(2000));
+        // 4118 of 4119 clocks high, less two ticks: inside the tolerance
+        // band above 16 + 4095, clamped to the largest count
+        let h = (4118 * 150 - 4 * 32) / 32;
+        assert_eq!(decode_window(h, e, &CFG), EncoderReading::Count(MAX_COUNT));
     }
 
     #[test]
@@ -517,37 +371,10 @@ mod tests {
         t
     }
 
-    /// The C++ failure: a window straddling the wrap averages to ~pi.
     #[test]
-    fn window_straddling_wrap_is_never_reported_as_a_bogus_angle() {
-        // Motor creeping forward across the wrap: frames ..4090, 4093, then 1, 4
-        let counts = |f: u64| -> u16 { ((4080 + 3 * f) % 4096) as u16 };
-        let frame = FRAME_CLOCKS as u64 * 150;
-        let mut t = acquired(counts(0));
-        let mut prev_ok = counts(0);
-        // 1 ms windows, run across the wrap
-        let mut t0 = frame; // start of frame 1
-        for _ in 0..20 {
-            let h = simulate(t0, 600_000, &counts);
-            let raw = decode_window(h, 600_000, &CFG);
-            let out = t.update(raw);
-            if let EncoderReading::Count(c) = out {
-                // never further than the physical motion + phase error
-                assert!(circular_distance(c, prev_ok) <= 256, "jump {prev_ok} -> {c}");
-                // and never near pi
-                assert!(circular_distance(c, 0) < 400, "bogus {c}");
-                prev_ok = c;
-            }
-            t0 += 600_000;
-        }
-        // ended up past the wrap
-        assert!(t.last_count().unwrap() < 200);
-    }
-
-    #[test]
-    fn mixed_window_alone_is_rejected_as_inconsistent() {
+    fn unreachable_count_alone_is_rejected_as_inconsistent() {
         let mut t = acquired(4090);
-        // an even mix of 4090 and 3: ~2046
+        // half a turn away in one tick (a corrupted capture)
         assert_eq!(t.update(EncoderReading::Count(2046)), EncoderReading::Lost(LossReason::Inconsistent));
         // next clean frame is accepted (within 2 * 256 after one lost tick)
         assert_eq!(t.update(EncoderReading::Count(5)), EncoderReading::Count(5));
