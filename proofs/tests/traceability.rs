@@ -92,3 +92,336 @@ fn the_checker_rejects_a_missing_harness() {
     assert!(!harnesses().contains("this_harness_does_not_exist"));
     assert!(harnesses().contains("operational_tick_is_safe_fx"));
 }
+
+// The safety-function layer (`docs/safety/`): hazards scored to a PL_r,
+// safety functions, validation cases and the conditions of use.
+
+/// Rows of the markdown tables in `doc` whose first cell starts with
+/// `prefix` (`SF-`, `H-`, `VC-`, ...), split into trimmed cells.
+fn prefixed_rows(doc: &str, prefix: &str) -> Vec<Vec<String>> {
+    let start = format!("| {prefix}");
+    doc.lines()
+        .filter(|l| l.starts_with(&start))
+        .map(|l| l.trim().trim_matches('|').split(" | ").map(|c| c.trim().to_string()).collect())
+        .collect()
+}
+
+/// The text of the section that starts with `heading` (up to the next `## `).
+fn section<'a>(doc: &'a str, heading: &str) -> Option<&'a str> {
+    let start = doc.find(heading)?;
+    let rest = &doc[start..];
+    let end = rest[heading.len()..].find("\n## ").map(|e| e + heading.len()).unwrap_or(rest.len());
+    Some(&rest[..end])
+}
+
+/// Identifiers `PREFIXn` (for example `SR-12`) in a cell, in order.
+fn ids(cell: &str, prefix: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = cell;
+    while let Some(i) = rest.find(prefix) {
+        let after = &rest[i + prefix.len()..];
+        let digits: String = after.chars().take_while(char::is_ascii_digit).collect();
+        if !digits.is_empty() {
+            out.push(format!("{prefix}{digits}"));
+        }
+        rest = &after[digits.len()..];
+    }
+    out
+}
+
+/// ISO 13849-1 Annex A risk graph: S, F, P -> PL_r.
+fn risk_graph(s: &str, f: &str, p: &str) -> Option<&'static str> {
+    Some(match (s, f, p) {
+        ("S1", "F1", "P1") => "a",
+        ("S1", "F1", "P2") | ("S1", "F2", "P1") => "b",
+        ("S1", "F2", "P2") | ("S2", "F1", "P1") => "c",
+        ("S2", "F1", "P2") | ("S2", "F2", "P1") => "d",
+        ("S2", "F2", "P2") => "e",
+        _ => return None,
+    })
+}
+
+/// Every gap between SAFETY.md and the documents of `docs/safety/`; empty
+/// when the safety-function layer is complete.
+fn safety_case_gaps(safety: &str, risk: &str, plan: &str, manual: &str) -> Vec<String> {
+    let mut gaps = Vec::new();
+    let srs: BTreeSet<String> = rows(safety, "## 5. Safety requirements").iter().map(|r| r[0].clone()).collect();
+    if srs.is_empty() {
+        gaps.push("SAFETY.md lists no requirements".to_string());
+    }
+
+    // Safety functions, as RISK.md defines them and SAFETY.md 5a maps them.
+    let mut sf_srs: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut sf_pl: BTreeMap<String, String> = BTreeMap::new();
+    for r in prefixed_rows(risk, "SF-") {
+        if r.len() != 8 {
+            gaps.push(format!("RISK.md: safety function row needs 8 cells: {r:?}"));
+            continue;
+        }
+        if !["a", "b", "c", "d", "e"].contains(&r[2].as_str()) {
+            gaps.push(format!("RISK.md: {} has no PL_r (a..e): '{}'", r[0], r[2]));
+        }
+        for (i, what) in [(4, "safe state"), (5, "stop category"), (6, "reaction-time budget")] {
+            if r[i].is_empty() {
+                gaps.push(format!("RISK.md: {} has no {what}", r[0]));
+            }
+        }
+        let named = ids(&r[7], "SR-");
+        if named.is_empty() && !r[7].starts_with("none") {
+            gaps.push(format!("RISK.md: {} names no SR and does not say none", r[0]));
+        }
+        sf_srs.insert(r[0].clone(), named.into_iter().collect());
+        sf_pl.insert(r[0].clone(), r[2].clone());
+    }
+    let layer = section(safety, "## 5a.").unwrap_or("");
+    if layer.is_empty() {
+        gaps.push("SAFETY.md has no section 5a (safety functions)".to_string());
+    }
+    let mut mapped = BTreeSet::new();
+    let mut in_safety = BTreeSet::new();
+    for r in prefixed_rows(layer, "SF-") {
+        if r.len() != 4 {
+            gaps.push(format!("SAFETY.md 5a: row needs 4 cells: {r:?}"));
+            continue;
+        }
+        in_safety.insert(r[0].clone());
+        let named: BTreeSet<String> = ids(&r[2], "SR-").into_iter().collect();
+        for id in &named {
+            if !srs.contains(id) {
+                gaps.push(format!("SAFETY.md 5a: {} names {id}, which is not a requirement", r[0]));
+            }
+        }
+        match sf_srs.get(&r[0]) {
+            None => gaps.push(format!("SAFETY.md 5a: {} is not defined in RISK.md", r[0])),
+            Some(risk_named) if *risk_named != named => {
+                gaps.push(format!("{}: SRs differ between SAFETY.md 5a {named:?} and RISK.md {risk_named:?}", r[0]))
+            }
+            Some(_) => {}
+        }
+        if sf_pl.get(&r[0]) != Some(&r[3]) {
+            gaps.push(format!("{}: PL_r differs between SAFETY.md 5a ({}) and RISK.md", r[0], r[3]));
+        }
+        mapped.extend(named);
+    }
+    for sf in sf_srs.keys() {
+        if !in_safety.contains(sf) {
+            gaps.push(format!("{sf} of RISK.md is missing from SAFETY.md 5a"));
+        }
+    }
+    for id in &srs {
+        if !mapped.contains(id) {
+            gaps.push(format!("{id} maps to no safety function (add it to SAFETY.md 5a and RISK.md section 5)"));
+        }
+    }
+
+    // Hazards: SAFETY.md's log plus RISK.md's mechanical ones, each scored.
+    let logged: BTreeSet<String> = section(safety, "## 4.")
+        .map(|s| prefixed_rows(s, "H-").into_iter().map(|r| r[0].clone()).collect())
+        .unwrap_or_default();
+    let mut scored = BTreeSet::new();
+    let mut serves: BTreeMap<String, String> = BTreeMap::new();
+    for r in prefixed_rows(risk, "H-") {
+        if r.len() != 8 {
+            gaps.push(format!("RISK.md: hazard row needs 8 cells: {r:?}"));
+            continue;
+        }
+        scored.insert(r[0].clone());
+        match risk_graph(&r[2], &r[3], &r[4]) {
+            None => gaps.push(format!("{}: S/F/P not scored: '{}' '{}' '{}'", r[0], r[2], r[3], r[4])),
+            Some(pl) if pl != r[5] => gaps
+                .push(format!("{}: PL_r '{}' is not the risk graph's {pl} for {} {} {}", r[0], r[5], r[2], r[3], r[4])),
+            Some(_) => {}
+        }
+        let sfs = ids(&r[6], "SF-");
+        if sfs.is_empty() {
+            gaps.push(format!("{} maps to no safety function", r[0]));
+        }
+        for sf in sfs {
+            if !sf_pl.contains_key(&sf) {
+                gaps.push(format!("{}: {sf} is not defined in RISK.md", r[0]));
+            }
+            let e = serves.entry(sf).or_insert_with(|| "a".to_string());
+            if r[5] > *e {
+                *e = r[5].clone();
+            }
+        }
+    }
+    for h in &logged {
+        if !scored.contains(h) {
+            gaps.push(format!("{h} of SAFETY.md section 4 is not scored in RISK.md"));
+        }
+    }
+    for (sf, pl) in &sf_pl {
+        match serves.get(sf) {
+            None => gaps.push(format!("{sf} serves no hazard")),
+            Some(max) if max != pl => gaps.push(format!("{sf}: PL_r {pl} is not the highest of its hazards' ({max})")),
+            Some(_) => {}
+        }
+    }
+
+    // Validation: one case per SF and per SR.
+    let mut cases = BTreeSet::new();
+    for r in prefixed_rows(plan, "VC-") {
+        if r.len() != 7 {
+            gaps.push(format!("VALIDATION-PLAN.md: case row needs 7 cells: {r:?}"));
+            continue;
+        }
+        let id = r[0].trim_start_matches("VC-").to_string();
+        if !sf_pl.contains_key(&id) && !srs.contains(&id) {
+            gaps.push(format!("VALIDATION-PLAN.md: {} covers neither an SF nor an SR", r[0]));
+        }
+        if r[1].is_empty() || r[3].is_empty() || r[4].is_empty() {
+            gaps.push(format!("VALIDATION-PLAN.md: {} lacks its fault, pass criterion or runs", r[0]));
+        }
+        if backticked(&r[5]).is_empty() && !r[5].starts_with("none: ") {
+            gaps.push(format!("VALIDATION-PLAN.md: {} names no scenario and gives no reason", r[0]));
+        }
+        cases.insert(id);
+    }
+    for id in sf_pl.keys().chain(srs.iter()) {
+        if !cases.contains(id) {
+            gaps.push(format!("{id} has no validation case (VC-{id} in VALIDATION-PLAN.md)"));
+        }
+    }
+
+    // Residual risks of SAFETY.md section 8 -> CSTR or an accepted rationale.
+    let cstrs: BTreeSet<String> = prefixed_rows(manual, "CSTR-").into_iter().map(|r| r[0].clone()).collect();
+    let residual = section(safety, "## 8.").unwrap_or("");
+    let mut items: Vec<String> = Vec::new();
+    for line in residual.lines().skip(1) {
+        if let Some(item) = line.strip_prefix("- ") {
+            items.push(item.to_string());
+        } else if let (Some(last), true) = (items.last_mut(), line.starts_with("  ")) {
+            last.push(' ');
+            last.push_str(line.trim());
+        }
+    }
+    let mut covered = vec![false; items.len()];
+    for r in prefixed_rows(manual, "RR-") {
+        if r.len() != 3 {
+            gaps.push(format!("SAFETY-MANUAL.md: residual-risk row needs 3 cells: {r:?}"));
+            continue;
+        }
+        let phrase = r[1].trim_matches('"');
+        let hits: Vec<usize> = items.iter().enumerate().filter(|(_, t)| t.contains(phrase)).map(|(i, _)| i).collect();
+        if hits.len() != 1 {
+            gaps.push(format!("{}: '{phrase}' occurs in {} items of SAFETY.md section 8, not one", r[0], hits.len()));
+        }
+        for i in hits {
+            covered[i] = true;
+        }
+        let named = ids(&r[2], "CSTR-");
+        for c in &named {
+            if !cstrs.contains(c) {
+                gaps.push(format!("{}: {c} is not a constraint of SAFETY-MANUAL.md", r[0]));
+            }
+        }
+        if named.is_empty() && !r[2].starts_with("accepted: ") {
+            gaps.push(format!("{} maps to no CSTR and gives no accepted rationale", r[0]));
+        }
+    }
+    if items.is_empty() {
+        gaps.push("SAFETY.md section 8 lists no residual risks".to_string());
+    }
+    for (item, ok) in items.iter().zip(covered) {
+        if !ok {
+            gaps.push(format!("residual risk not carried into SAFETY-MANUAL.md: '{item}'"));
+        }
+    }
+    gaps
+}
+
+fn safety_docs() -> [String; 4] {
+    ["SAFETY.md", "docs/safety/RISK.md", "docs/safety/VALIDATION-PLAN.md", "docs/safety/SAFETY-MANUAL.md"]
+        .map(|p| std::fs::read_to_string(root().join(p)).unwrap_or_else(|e| panic!("{p}: {e}")))
+}
+
+#[test]
+fn every_hazard_sr_sf_case_and_residual_risk_is_traced() {
+    let [safety, risk, plan, manual] = safety_docs();
+    let gaps = safety_case_gaps(&safety, &risk, &plan, &manual);
+    assert!(gaps.is_empty(), "safety-function layer has gaps:\n{}", gaps.join("\n"));
+}
+
+/// Each kind of gap, put into a copy of the real documents, is reported.
+#[test]
+fn the_safety_case_check_fails_on_each_kind_of_gap() {
+    let [safety, risk, plan, manual] = safety_docs();
+    let replace = |doc: &str, from: &str, to: &str| {
+        assert!(doc.contains(from), "the gap test's anchor '{from}' is gone");
+        doc.replacen(from, to, 1)
+    };
+    let cases: [(&str, [String; 4], &str); 7] = [
+        (
+            "a hazard without PL_r",
+            [
+                safety.clone(),
+                replace(&risk, "| S2 | F1 | P2 | d | SF-1 |", "| S2 | F1 | P2 |  | SF-1 |"),
+                plan.clone(),
+                manual.clone(),
+            ],
+            "H-1: PL_r '' is not the risk graph's d",
+        ),
+        (
+            "a hazard not scored",
+            [
+                safety.clone(),
+                replace(&risk, "| H-9 | wrong zero | S2 | F1 | P1 |", "| H-9 | wrong zero | S2 | F1 | ? |"),
+                plan.clone(),
+                manual.clone(),
+            ],
+            "H-9: S/F/P not scored",
+        ),
+        (
+            "a hazard without a safety function",
+            [
+                safety.clone(),
+                replace(&risk, "| c | SF-7 | every later move", "| c | - | every later move"),
+                plan.clone(),
+                manual.clone(),
+            ],
+            "H-9 maps to no safety function",
+        ),
+        (
+            "an SR without a safety function",
+            [
+                replace(&safety, "SR-21, SR-22, SR-28, SR-32 | d |", "SR-21, SR-22, SR-32 | d |"),
+                risk.clone(),
+                plan.clone(),
+                manual.clone(),
+            ],
+            "SR-28 maps to no safety function",
+        ),
+        (
+            "an SF without a validation case",
+            [safety.clone(), risk.clone(), replace(&plan, "| VC-SF-6 |", "| XX-SF-6 |"), manual.clone()],
+            "SF-6 has no validation case",
+        ),
+        (
+            "an SR without a validation case",
+            [safety.clone(), risk.clone(), replace(&plan, "| VC-SR-30 |", "| XX-SR-30 |"), manual.clone()],
+            "SR-30 has no validation case",
+        ),
+        (
+            "a residual risk without a constraint",
+            [
+                replace(
+                    &safety,
+                    "\n## 8. Residual risks",
+                    "\n## 8. Residual risks\n\n- A new residual risk nobody carried over.",
+                ),
+                risk.clone(),
+                plan.clone(),
+                manual.clone(),
+            ],
+            "residual risk not carried into SAFETY-MANUAL.md: 'A new residual risk",
+        ),
+    ];
+    for (what, [s, r, p, m], expected) in &cases {
+        let gaps = safety_case_gaps(s, r, p, m);
+        assert!(
+            gaps.iter().any(|g| g.contains(expected)),
+            "{what}: expected a gap containing '{expected}', got {gaps:?}"
+        );
+    }
+}
