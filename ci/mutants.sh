@@ -18,9 +18,9 @@
 # Environment: MUTANTS_OUT (output root), MUTANTS_TIMEOUT (test timeout per
 # mutant in seconds, default 30: the kernel's tests take about 1.5 s),
 # MUTANTS_SRC (scratch directory, default a fresh mktemp -d), MUTANTS_REV
-# (the commit to mutate, default HEAD), MUTANTS_TESTS_REV (also take
-# kernel/tests/mutants_*.rs from this commit: the tests written for the
-# survivors, run against an older kernel), MUTANTS_ITERATE=1 (test only
+# (the commit to mutate, default HEAD), MUTANTS_TESTS_REV (take the
+# kernel's integration tests, kernel/tests/, from this commit instead: newer
+# tests run against an older kernel), MUTANTS_ITERATE=1 (test only
 # the mutants not caught in the previous run in $MUTANTS_OUT: cargo-mutants
 # --iterate). A file the commit does not have is skipped.
 set -euo pipefail
@@ -78,8 +78,9 @@ rev="${MUTANTS_REV:-HEAD}"
 git archive "$rev" | tar -x -C "$src"
 echo "ci/mutants.sh: $rev = $(git rev-parse --short "$rev") in $src, results in $OUT"
 if [ -n "${MUTANTS_TESTS_REV:-}" ]; then
-    git archive "$MUTANTS_TESTS_REV" kernel/tests | tar -x -C "$src" --wildcards 'kernel/tests/mutants_*.rs'
-    echo "ci/mutants.sh: with kernel/tests/mutants_*.rs of $MUTANTS_TESTS_REV"
+    rm -rf "$src/kernel/tests"
+    git archive "$MUTANTS_TESTS_REV" kernel/tests | tar -x -C "$src"
+    echo "ci/mutants.sh: with kernel/tests/ of $MUTANTS_TESTS_REV"
 fi
 iterate=()
 [ "${MUTANTS_ITERATE:-0}" = 1 ] && iterate=(--iterate)
@@ -98,7 +99,7 @@ for f in "${FILES[@]}"; do
     echo "== $f ($(date -u +%H:%M:%S))"
     # Exit status 2 means missed mutants, 3 timeouts: both are results.
     # --features proof-states: `Kernel::from_spec` (proof-only code in
-    # invariant.rs) and its tests (kernel/tests/mutants_invariant.rs).
+    # invariant.rs) and its tests (kernel/tests/from_spec.rs).
     (cd "$src" && cargo mutants -p kernel --test-package kernel --features proof-states -f "$f" --in-place --no-shuffle \
         --timeout "${MUTANTS_TIMEOUT:-30}" --build-timeout 600 "${baseline[@]}" "${iterate[@]}" \
         --output "$OUT/$name") || { rc=$?; [ "$rc" -eq 2 ] || [ "$rc" -eq 3 ]; }

@@ -1,17 +1,14 @@
-//! `<HOME>` handed to the kernel in the tick the host link is lost (found by
-//! the `kernel_ticks` fuzz target, issue 14): the run starts and fails in
-//! the same tick, as a homing run interrupted by a lost link does: H3, the
+//! `<HOME>` handed to the kernel in the tick the host link is lost (a case
+//! the `kernel_ticks` fuzz target reaches): the run starts and fails in the
+//! same tick, as a homing run interrupted by a lost link does: H3, the
 //! run's joints unhomed, the arm stops and latches. The monitor checks every
-//! tick (it once took the stop for one entered from Operational and flagged
-//! SR-19 for the unhomed joints).
+//! tick; it must tell this stop from one entered from Operational, or it
+//! would flag SR-19 for the unhomed joints.
 
 mod common;
 
-use common::{both, Rig};
-use kernel::config::AXES;
+use common::{both, Rig, START};
 use kernel::{Event, HomingStatus, Request, Scalar, State, StopCause};
-
-const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 
 both!(home_in_the_tick_the_link_is_lost_fails_the_run_and_latches);
 

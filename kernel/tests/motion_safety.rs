@@ -1,16 +1,17 @@
-//! Issue 12: motion that stays inside what was validated. Each test
-//! reproduces a finding of the issue (measured there on the kernel before
-//! this change: the figure is given per test) and runs for both numeric
-//! variants, every tick checked by the safety monitor.
+//! Motion that stays inside what was validated: a stream that stops ends at
+//! its last target, a reversed or stalled motor faults within a bound,
+//! homing accelerates gradually and starts only from rest, a latch needs
+//! `<ENABLE>`, a stale pose is refused, a lost link stops the arm, and the
+//! same holds at other tick rates. Each test names the failure it excludes
+//! (with the figure a kernel without the rule gives) and runs for both
+//! numeric variants, every tick checked by the safety monitor.
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 mod common;
 
-use common::{both, Rig};
+use common::{both, homed, Rig, START};
 use kernel::config::{ArmConfig, Validated, AXES, PAROL6};
 use kernel::{Event, FaultReason, HomingStatus, Reject, Request, RequestKind, Scalar, State, StopCause};
-
-const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 
 both!(
     a_stream_that_stops_abruptly_ends_at_its_last_target,
@@ -30,12 +31,6 @@ both!(
     rehoming_a_dead_switch_stops_just_past_the_switch,
 );
 
-fn homed<S: Scalar>() -> Rig<S> {
-    let mut r = Rig::<S>::new(START);
-    r.boot_and_home();
-    r
-}
-
 /// Streams joint `j` from its position toward `dir` at `speed` rad/s at
 /// 100 Hz for `samples` samples, then stops sending; returns the last
 /// target sent.
@@ -50,8 +45,9 @@ fn stream<S: Scalar>(r: &mut Rig<S>, j: usize, speed: f64, samples: u32) -> [f64
     p
 }
 
-/// Issue 12: a stream that stopped abruptly carried J1 0.090 rad, J3 0.105
-/// and J6 0.116 rad past its final target. Now the set-point stops at it.
+/// A stream that stops abruptly ends at its final target: the set-point
+/// stops at it (a set-point that kept its speed when the samples stopped
+/// carried J1 0.090 rad, J3 0.105 and J6 0.116 rad past it).
 fn a_stream_that_stops_abruptly_ends_at_its_last_target<S: Scalar>() {
     for (j, speed) in [(0usize, 2.8f64), (2, -5.5), (5, -5.5)] {
         let mut r = homed::<S>();
@@ -68,9 +64,9 @@ fn a_stream_that_stops_abruptly_ends_at_its_last_target<S: Scalar>() {
     }
 }
 
-/// Issue 12: streaming J1 at 3 rad/s to exactly `limit_max` ended 0.020 rad
-/// beyond the limit with no fault. Now the joint stays inside (a set-point
-/// never passes a validated target).
+/// Streaming J1 at 3 rad/s to exactly `limit_max` keeps the joint inside
+/// the limit: a set-point never passes a validated target (one that
+/// overshoots ends 0.020 rad beyond the limit, with no fault).
 fn streaming_to_the_limit_stays_inside_it<S: Scalar>() {
     let mut r = homed::<S>();
     let lim = f64::from(PAROL6.joints[0].limit_max);
@@ -103,8 +99,9 @@ fn streaming_to_the_limit_stays_inside_it<S: Scalar>() {
     assert_eq!(r.k.state(), State::Operational, "{:?}", r.events);
 }
 
-/// Issue 12: J1 with an inverted DIR ran the wrong way at 0.9 rad/s until
-/// it hit its switch. Now the following error faults it within a bound.
+/// J1 with an inverted DIR line faults on its following error within a
+/// bound (unchecked, it runs the wrong way at 0.9 rad/s until it hits its
+/// switch).
 fn a_reversed_motor_faults_within_its_bound<S: Scalar>() {
     let mut r = homed::<S>();
     // Away from J1's switch first (homing leaves it next to it).
@@ -141,9 +138,9 @@ fn a_stalled_motor_faults<S: Scalar>() {
     assert!(n <= 150, "{n} ms");
 }
 
-/// Issue 12: J6's seek jumped 0 -> 2 rad/s in one tick (33x the Operational
-/// step). Now every homing velocity change is at most one tick's
-/// acceleration, except the stop at a switch.
+/// Every homing velocity change is at most one tick's acceleration, except
+/// the stop at a switch (a seek that starts at full speed jumps J6 from 0
+/// to 2 rad/s in one tick, 33x the Operational step).
 fn homing_accelerates_gradually<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
     r.run(3);
@@ -172,9 +169,9 @@ fn homing_accelerates_gradually<S: Scalar>() {
     }
 }
 
-/// Issue 12: a `<HOME>` while streaming switched to homing in the same tick
-/// (J6 went -0.4 -> +1.8 rad/s within 40 ms). Now the arm stops first with
-/// the soft stop's ramp, then homing starts.
+/// A `<HOME>` while streaming stops the arm first with the soft stop's
+/// ramp, then homing starts (switching to homing in the same tick takes J6
+/// from -0.4 to +1.8 rad/s within 40 ms).
 fn home_while_moving_stops_first<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
@@ -204,8 +201,9 @@ fn home_while_moving_stops_first<S: Scalar>() {
     assert_eq!(r.k.state(), State::Operational);
 }
 
-/// Issue 12: `<HOME>` left SoftEstop, so a driver restart after a cable pull
-/// re-homed and resumed. Now only `<ENABLE>` clears a latch.
+/// Only `<ENABLE>` clears a latch: `<HOME>` in SoftEstop is refused (were
+/// it accepted, a driver restarting after a cable pull would re-home and
+/// resume on its own).
 fn home_in_a_latched_state_is_refused<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
@@ -274,10 +272,10 @@ fn a_timeout_while_moving_still_latches<S: Scalar>() {
     r.run_until(200, |o| o.status.state == State::SoftEstop).expect("latches");
 }
 
-/// Issue 12: a re-activated driver that reads a feedback line from before
-/// its `<HOME>` (H2, stale pose) streams that pose while the arm re-homes;
-/// when homing ended, the kernel took the far target and drove back to it.
-/// Now the stale sample is refused as a jump and nothing moves.
+/// A re-activated driver that reads a feedback line from before its
+/// `<HOME>` (H2, stale pose) streams that pose while the arm re-homes; when
+/// homing ends, that far sample is refused as a jump and nothing moves
+/// (taken, it would drive the arm back to the stale pose).
 fn a_stale_pose_after_rehoming_is_refused<S: Scalar>() {
     let mut r = homed::<S>();
     let mut far = r.plant.q;
@@ -339,8 +337,8 @@ fn link_loss_during_homing_fails_the_run<S: Scalar>() {
     r.run_until(200, |o| o.status.state == State::SoftEstop).expect("latches");
 }
 
-/// C++ defect 11 (issue 12 decision 9): every time constant comes from the
-/// configured tick rate. At 500 Hz and 2 kHz the arm homes, follows a
+/// C++ defect 11: every time constant comes from the configured tick
+/// rate. At 500 Hz and 2 kHz the arm homes, follows a
 /// go-to, holds at the timeout and latches an interrupted stream, with the
 /// same wall-clock figures as at 1 kHz.
 fn runs_at_500_hz_and_2_khz<S: Scalar>() {

@@ -9,8 +9,8 @@
 //!
 //! The tests are in `tests/`: `kernel_state_machine.rs` (proptest-state-machine
 //! runs of both variants), `differential.rs` (f32 vs fixed point),
-//! `issue12_findings.rs` (deterministic replays of what the random runs
-//! found in the issue 12 kernel) and `workflow_yaml.rs` (structure of the CI
+//! `regressions.rs` (deterministic replays of failing cases the random runs
+//! can draw) and `workflow_yaml.rs` (structure of the CI
 //! workflow). Failures are persisted
 //! under `proptest-regressions/` and replayed first on every run.
 

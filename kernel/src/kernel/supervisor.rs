@@ -278,7 +278,7 @@ impl<S: Scalar> Kernel<S> {
             // Not during the settle wait: the paths were set to estimates
             // that may still be catching up with the arm (the observer after
             // a push or a stop); the wait ends by resyncing them to the
-            // settled estimates (`mutants_supervisor` shows a push released
+            // settled estimates (`kernel/tests/homing.rs` shows a push released
             // as HOME arrives moving the estimate past the bound).
             Mode::Homing if self.home_wait > 0 => {}
             Mode::Homing | Mode::Stopping { .. } => self.following(true, fault),

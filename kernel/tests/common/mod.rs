@@ -9,6 +9,17 @@ use monitor::plant::Witness;
 pub use monitor::plant::{EncoderFault, Plant};
 use monitor::{Monitor, Sent};
 
+/// The arm's pose at power-on in most tests: every joint off its home
+/// position and inside its limits, so that homing moves each of them.
+pub const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
+
+/// A rig at `START`, booted and homed (in Operational).
+pub fn homed<S: Scalar>() -> Rig<S> {
+    let mut r = Rig::<S>::new(START);
+    r.boot_and_home();
+    r
+}
+
 /// Kernel + plant + the monitor, checked at every tick.
 pub struct Rig<S: Scalar> {
     pub k: Kernel<S>,

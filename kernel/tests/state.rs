@@ -1,19 +1,15 @@
-//! Tests written for the survivors of a cargo-mutants run on the kernel's
-//! logic files (`ci/mutants.sh`, `docs/MUTANTS.md`): each asserts the
-//! behaviour SAFETY.md or docs/PROTOCOL.md specify.
-//! This file: the kernel itself (`kernel/src/kernel.rs`).
-#![allow(clippy::needless_range_loop)] // six axes: indices read best
+//! The kernel's observable state: `Hash for Kernel` follows the state that
+//! determines its future (what the model checker relies on), and the status
+//! reports the six joints' limit bits as sensed.
 
 mod common;
 
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
 
-use common::Rig;
-use kernel::config::{AXES, PAROL6_VALIDATED};
+use common::{Rig, START};
+use kernel::config::PAROL6_VALIDATED;
 use kernel::{Fx, Kernel, State};
-
-const START: [f64; AXES] = [0.3, 0.2, -0.4, 0.5, -0.3, 1.0];
 
 fn hash_of(k: &Kernel<Fx>) -> u64 {
     let mut h = DefaultHasher::new();
@@ -24,7 +20,7 @@ fn hash_of(k: &Kernel<Fx>) -> u64 {
 /// `Hash for Kernel` (the fixed-point variant) hashes the state that
 /// determines the kernel's future behaviour, for the model checker: two
 /// kernels in the same state hash alike whatever their identity, and a
-/// kernel that has left Boot does not hash like one in Boot. Survivor: the
+/// kernel that has left Boot does not hash like one in Boot. Catches: the
 /// hash replaced by nothing (every state alike: the model would explore
 /// one state).
 #[test]
@@ -44,7 +40,7 @@ fn the_kernel_hash_follows_its_state_not_its_identity() {
 
 /// PROTOCOL.md's status reports one limit bit per joint: bits beyond the
 /// six joints of the sensed mask (a board reporting more inputs) are not
-/// reported, the six are reported as sensed. Survivors: `limits & ALL` in
+/// reported, the six are reported as sensed. Catches: `limits & ALL` in
 /// `Kernel::status` as `|` and as `^`.
 #[test]
 fn the_status_reports_the_six_joints_limit_bits_as_sensed() {

@@ -1,5 +1,3 @@
-//! Tests written for the survivors of a cargo-mutants run on the kernel's
-//! logic files (`ci/mutants.sh`, `docs/MUTANTS.md`). This file:
 //! `Kernel::from_spec` (`kernel/src/kernel/invariant.rs`), the constructor
 //! of arbitrary states the proofs start from. It exists only with the
 //! `proof-states` feature (the proofs enable it; the firmware and the

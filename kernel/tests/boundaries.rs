@@ -1,14 +1,12 @@
-//! Tests written for the survivors of a cargo-mutants run on the kernel's
-//! logic files (`ci/mutants.sh`, `docs/MUTANTS.md`): the strict and
-//! non-strict comparisons at the kernel's thresholds. SAFETY.md and
-//! PROTOCOL.md state each rule with its boundary ("faster than its runaway
-//! speed", "outside the limits by more than the margin", "more than the
-//! following-error bound", ...); a mutant that moves the boundary by one
-//! value differs only when the compared quantity is *exactly* the
-//! threshold, which no scenario reaches by chance. These tests put it
-//! there: a state built with `Kernel::from_spec` (feature `proof-states`,
-//! as the proofs do) whose estimate the next tick's observer step keeps
-//! exactly where it is wanted.
+//! The kernel's thresholds, compared strictly or inclusively as SAFETY.md
+//! and docs/PROTOCOL.md state each rule ("faster than its runaway speed",
+//! "outside the limits by more than the margin", "more than the
+//! following-error bound", "at or below the hold speed", ...). A rule whose
+//! boundary moved by one value would differ only when the compared
+//! quantity is *exactly* the threshold, which no scenario reaches by
+//! chance. These tests put it there: a state built with `Kernel::from_spec`
+//! (feature `proof-states`, as the proofs do) whose estimate the next
+//! tick's observer step keeps exactly where it is wanted.
 //!
 //! The construction: encoder count 0 and homing zero `z`, so the measured
 //! angle is exactly `z`; with `z = x + v dt` (the observer's own
@@ -67,7 +65,7 @@ fn fault<S: Scalar>(out: &TickOutput<S>) -> Option<FaultReason> {
     out.status.fault.map(|f| f.reason)
 }
 
-/// SR-9: a joint *faster than* its runaway speed faults. Survivor:
+/// SR-9: a joint *faster than* its runaway speed faults. Catches:
 /// `v.abs() > runaway` as `>=` (the check in every state).
 fn exactly_the_runaway_speed_is_no_runaway<S: Scalar>() {
     for (v, want) in [(0.0f32, None), (0.01, Some(FaultReason::Runaway { axis: 0 }))] {
@@ -86,7 +84,7 @@ fn exactly_the_runaway_speed_is_no_runaway<S: Scalar>() {
 
 /// SR-10 / PROTOCOL.md 6.7: a homed joint faults when its estimate is
 /// *outside* its limits widened by the margin; exactly on them is inside.
-/// Survivors: `x < pos_lo` as `<=`, `x > pos_hi` as `>=` (Operational).
+/// Catches: `x < pos_lo` as `<=`, `x > pos_hi` as `>=` (Operational).
 fn exactly_at_the_position_limits_is_inside<S: Scalar>() {
     let m = PAROL6.position_margin;
     for j in [0usize, 2, 5] {
@@ -108,7 +106,7 @@ fn exactly_at_the_position_limits_is_inside<S: Scalar>() {
 
 /// PROTOCOL.md 6.5: `<ENABLE>` is refused while a cause is present: a
 /// joint *faster than* its speed limit, or a homed joint *outside* its
-/// limits (with the margin). Exactly at them, it is accepted. Survivors
+/// limits (with the margin). Exactly at them, it is accepted. Catches
 /// (`present_cause`): `v.abs() > vmax` as `>=`, `x < pos_lo` as `<=`,
 /// `x > pos_hi` as `>=`.
 fn enable_accepts_exactly_the_speed_limit_and_the_position_limits<S: Scalar>() {
@@ -160,7 +158,7 @@ fn with_error<S: Scalar>(j: usize, e: S, v: S, cmd: S, fe_count: u32) -> Kernel<
 /// the speed limit either way, the command *beyond* half the speed limit.
 /// At exactly half it is no rule. Each case: the error 3/4 of the bound
 /// (inside the bound, past its half), the counter one tick from its fault.
-/// Survivors: the four comparisons of `against` made non-strict.
+/// Catches: the four comparisons of `against` made non-strict.
 fn the_direction_rule_is_strict_at_half_the_speed_limit<S: Scalar>() {
     let jc = &PAROL6.joints[0];
     let half = S::from_f32(0.5 * jc.max_velocity);
@@ -190,7 +188,7 @@ fn kernel_fe_ticks() -> u32 {
 
 /// PROTOCOL.md 6.7: *farther than* the bound (or than half of it while
 /// moving against the command) for longer than the time. Exactly the bound,
-/// or exactly half of it against the command, is no error. Survivors:
+/// or exactly half of it against the command, is no error. Catches:
 /// `e.abs() > fe` as `>=`, `e.abs() > fe_half` as `>=`.
 fn the_following_error_bounds_are_strict<S: Scalar>() {
     let jc = &PAROL6.joints[0];
@@ -216,7 +214,7 @@ fn the_following_error_bounds_are_strict<S: Scalar>() {
 
 /// An estimate is plausible only *inside* the kernel's absolute bound of
 /// 32 rad (a Numeric fault otherwise, in any state where the axis has been
-/// read; Unhomed here, where no position limit applies). Survivor:
+/// read; Unhomed here, where no position limit applies). Catches:
 /// `x.abs() < pos_abs` as `<=`.
 fn an_estimate_of_exactly_32_rad_is_implausible<S: Scalar>() {
     let bound = S::from_f32(POSITION_ABS_MAX);
@@ -243,7 +241,7 @@ fn an_estimate_of_exactly_32_rad_is_implausible<S: Scalar>() {
 /// `Kernel::moving`: an output *above* the hold speed is motion; exactly
 /// the hold speed is holding (PROTOCOL.md 6.2: at rest means "every output
 /// at or below the hold speed 0.01 rad/s"; `Params::hold_speed`: "Outputs at
-/// or below this are holding"). Survivor: `v.abs() > hold` as `>=`.
+/// or below this are holding"). Catches: `v.abs() > hold` as `>=`.
 fn an_output_of_exactly_the_hold_speed_is_holding<S: Scalar>() {
     for (out, moving) in [(HOLD_SPEED, false), (-HOLD_SPEED, false), (HOLD_SPEED * 2.0, true)] {
         let mut s = spec::<S>(SpecMode::Operational);
@@ -257,8 +255,8 @@ fn an_output_of_exactly_the_hold_speed_is_holding<S: Scalar>() {
 /// of 64 rad/s. The invariant admits no state at it, so the observer puts
 /// it there: a residual `r` with `v + beta r` exactly 64 (the zero chosen
 /// so that the reading is the prediction plus `r`). Exactly 64 is a
-/// Numeric fault; the mutant finds it plausible and reports the same
-/// tick's runaway instead. Survivor: `v.abs() < vel_abs` as `<=`.
+/// Numeric fault; a bound compared inclusively finds it plausible and
+/// reports the same tick's runaway instead. Catches: `v.abs() < vel_abs` as `<=`.
 fn an_estimated_speed_of_exactly_64_rad_s_is_implausible<S: Scalar>() {
     let beta_hz = S::from_f32(PAROL6.beta() * PAROL6.tick_hz as f32);
     let top = S::from_f32(64.0);
@@ -287,7 +285,7 @@ fn an_estimated_speed_of_exactly_64_rad_s_is_implausible<S: Scalar>() {
 /// SR-14: a homing phase that travels *farther than* its bound faults
 /// (`HOMING_TRAVEL`); exactly the bound is allowed. The fast seek's bound
 /// and the other phases' bound, on the homing state machine itself.
-/// Survivor: `x - origin > bound` as `>=`.
+/// Catches: `x - origin > bound` as `>=`.
 fn a_homing_phase_may_travel_exactly_its_bound<S: Scalar>() {
     use kernel::homing::{AxisHoming, HomingParams, Phase};
     let p = HomingParams {

@@ -1,9 +1,10 @@
-//! Deterministic replays of what the property tests found in the issue 12
-//! kernel (each a shrunk case of `kernel_state_machine.rs`, or the same
-//! situation built by hand), every tick checked by the safety monitor.
+//! Deterministic replays of failing cases the property tests can draw
+//! (each a shrunk case of `kernel_state_machine.rs`, or the same situation
+//! built by hand), every tick checked by the safety monitor. Each bullet
+//! names what a kernel without the rule does in that case.
 //!
 //! * `no_following_error_on_a_clean_plant_*`: streams that reverse a joint
-//!   trip `FOLLOWING_ERROR` with nothing injected (SR-28: a stalled,
+//!   must not trip `FOLLOWING_ERROR` with nothing injected (SR-28: a stalled,
 //!   reversed or step-losing motor is the only cause). The set-point
 //!   reverses at the full `max_acceleration` and the output is limited to
 //!   the same acceleration, so the control law has no authority left to
@@ -22,7 +23,7 @@
 //!   downward it reaches it and then passes it by about `v^2 / 2a` (the
 //!   remaining distance is zero and a zero distance is taken as "positive").
 //!   Either behaviour breaks one of SR-27's two rules (acceleration, never
-//!   past the target); the two directions should at least agree.
+//!   past the target); the two directions must at least agree.
 
 use kernel::config::PAROL6;
 use kernel::{Fx, MotionKind, MotionTarget, Request, State};
