@@ -43,6 +43,10 @@ export PROPTEST_RNG_SEED
 echo "PROPTEST_RNG_SEED=$PROPTEST_RNG_SEED"
 KANI_SHIM_REPORT="$EVIDENCE_DIR/shim.tsv" cargo test --workspace --locked
 
+step "safety package: FMEDA (DC per part, DC_avg, MTTFd per channel, CCF score, the PL they support) and its tests"
+python3 docs/safety/fmeda.py
+PYTHONDONTWRITEBYTECODE=1 python3 -m unittest discover -s docs/safety -p 'test_*.py'
+
 step "kernel and protocol for the Cortex-M7"
 cargo build -p kernel -p protocol --target thumbv7em-none-eabihf --release --locked
 
