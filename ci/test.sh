@@ -63,7 +63,7 @@ if [ "${QUICK:-0}" != "1" ]; then
     step "exhaustive sweeps (every I8F24 / f32 bit pattern of the per-axis functions)"
     cargo run -p exhaustive --release --locked --bin exhaustive
 
-    # Since issue 12 the kernel carries continuous state (set-point
+    # The kernel carries continuous state (set-point
     # velocities, following-error paths, homing ramps) and the full model no
     # longer finishes: it is explored breadth first for 150 s (a bounded
     # exploration: sampled evidence); the reduced configurations (Kernel<Fx>

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates docs/BENCHMARKS.md (issue 7): instructions executed per kernel
+# Regenerates docs/BENCHMARKS.md: instructions executed per kernel
 # tick and per parsed driver frame on the emulated Cortex-M7, counted by the
 # project's QEMU TCG plugin (emu/plugin/count.c), plus code size, RAM, stack,
 # and the host criterion figures. Slow (several minutes); not part of the
@@ -104,7 +104,7 @@ if [ "${EMU_SKIP_CRITERION:-0}" != 1 ]; then
     [ -n "$crit" ] || crit="(criterion produced no figures; see $OUT/criterion_*.txt)"
 fi
 
-# Issue 14: the image as flashed, the whole tick interrupt on the twin, the
+# The image as flashed, the whole tick interrupt on the twin, the
 # simulator's speed.
 echo "==> release image (firmware/build.sh: the USB build as flashed)"
 (cd "$ROOT" && SKIP_REPRO=1 firmware/build.sh) >"$OUT/firmware_build.txt" 2>&1 || true
@@ -243,11 +243,11 @@ fixed point (I8F24):
 
 $(echo "${PROFILE[fx]}")
 
-## Issue 14's figures (this project's column; goals from the issue)
+## The figures against their goals (this project's column)
 
 The shipped image is the **generic** build (FPv4-SP: no \`vsel\`, \`vminnm\`/\`vmaxnm\` or hardware
 f64); the cm7 build is what an FPv5 build would run. The whole-scenario rows include homing and
-idle ticks; the streamed-trajectory row is the figure the issue's "while following a stream" asks for.
+idle ticks; the streamed-trajectory row is the figure for a tick "while following a stream".
 
 | figure | generic (shipped) | cm7 | C++ (quoted) | goal |
 |---|---:|---:|---:|---:|
@@ -272,7 +272,7 @@ $(for f in generic cm7; do echo "${TABLE[$f]}"; done | awk -F'|' '
 | worst tick stack (bytes, static bound incl. the 104-byte exception frame) | $TICK_STACK | - | - | <= 512 |
 | simulator, x real time (built-in scenarios) | $SIM_SPEED | - | - | >= 1,000 |
 
-C++ column: quoted from issue 14, not measured here: the C++ firmware this project replaces, its own
+C++ column: quoted, not measured by this script: the C++ firmware this project replaces, its own
 source compiled unchanged with arm-none-eabi-g++ -O2 -mcpu=cortex-m7 -mfpu=fpv5-d16
 -mfloat-abi=hard (every safety feature on), counted on the same emulated Cortex-M7 through a
 2,700-tick stream / soft-stop / enable / hold scenario with encoder and step I/O stubbed (so its
@@ -302,7 +302,7 @@ minima, maxima and selects alone are about a third of the streamed tick (about 1
 1,000 instructions for six axes leaves about 165 per axis for all of it: that needs a different
 interpolator (fewer candidates, per-segment constants computed once per target, not per tick),
 i.e. a change to code that the SMT proofs, the Kani harnesses and the mutation run cover. Not
-attempted in issue 14.
+attempted.
 Constancy: each tick does the work of its mode (Operational and Stopping interpolate and control;
 Boot, Unhomed, SoftEstop and Fault sense, estimate and check). A constant tick would run the
 Operational path in every mode and discard it, raising every idle tick to the streamed cost; the
@@ -317,13 +317,13 @@ stack (\`usb_device\`, \`imxrt_usbd\`, \`usbd_serial\`: about 8 KiB), the protoc
 formatting for both dialects (about 20 KiB; about 10 KiB at opt-level "z"), the tick at opt-level 3 (the kernel's
 tick inlined into \`firmware\`'s \`Controller::kernel_step\`, about 13 KiB, most of that crate's share),
 and \`compiler_builtins\` (about 7 KiB: soft f64 for the parameters the kernel derives at boot,
-\`memcpy\`). Measured alternatives (issue 14 closing note): \`-C target-cpu=cortex-m7\`
+\`memcpy\`). Measured alternatives (by hand, not by this script): \`-C target-cpu=cortex-m7\`
 (FPv5, hardware f64) gave a *larger* image (111,992 B against 107,520 B at the same revision:
 more unrolling at opt-level 3, though \`compiler_builtins\` shrinks from 6.9 to 4.2 KiB);
 opt-level "z" for the crates outside the tick (\`firmware/build.sh\` \`IMAGE_SIZE_OPT=1\`) gave
-96,572 B against 107,160 B at 6712f8d, where the twin passed every test with it; that revision's
-boot calibration of the encoder decoders was reverted (its image was not reproducible across build
-directories, firmware/README.md), and without it the option moves the boot timing enough for the
+96,572 B against 107,160 B at 6712f8d, where the twin passed every test with it; that revision
+also calibrated the encoder decoders at boot, which the shipped image does not (that image was not
+reproducible across build directories, firmware/README.md), and without it the option moves the boot timing enough for the
 twin to mis-read a 9.5 %-fast encoder (defect 6), so it is off. Below 64 KiB would need dropping
 functions (one of the two protocol dialects' formatting, the USB CDC port in favour of Serial1 only),
 which the drop-in requirement rules out.

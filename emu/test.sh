@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Emulated Cortex-M7 tests and the host/target equivalence check (issue 7).
+# Emulated Cortex-M7 tests and the host/target equivalence check.
 #
 # Installs what it needs on a fresh Debian machine (qemu-system-arm, an ARM
 # disassembler, the thumbv7em-none-eabihf target), then for each of two

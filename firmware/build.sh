@@ -16,9 +16,10 @@ OUT="$ROOT/target/firmware"
 FEATURES="${FEATURES:-}"
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target/fw-build}"
 # defmt compiles out every log statement below DEFMT_LOG, and nothing at all
-# when it is unset (issue 11 defect 7: `.defmt` was 3 bytes and the log port
-# printed nothing). `info` keeps the boot line and the main loop's reports;
-# the check after the build fails if no info statement made it in.
+# when it is unset (twin defect 7, twin/README.md: with it unset `.defmt`
+# is 3 bytes and the log port prints nothing). `info` keeps the image's one
+# info statement, the boot line; the check after the build fails if no info
+# statement made it in.
 export DEFMT_LOG="${DEFMT_LOG:-info}"
 mkdir -p "$OUT"
 
@@ -36,7 +37,7 @@ if rustup run nightly rustc -V >/dev/null 2>&1 || rustup toolchain install night
   rustup target add --toolchain nightly "$TARGET" >/dev/null 2>&1 && HAVE_NIGHTLY=1
 fi
 
-# Image-only profile settings (issue 14, image size): code that runs only in
+# Image-only profile settings (image size): code that runs only in
 # the main loop or at boot -- the USB stack and every other dependency from
 # outside the workspace, and the protocol crate's line formatting -- is
 # optimised for size; the crates the tick's code is generated in (firmware:
@@ -49,14 +50,10 @@ fi
 # code before the first tick, which moves the encoder frames' phase at the
 # kernel's first reading; on the twin a 9.5 %-fast MT6816 (J4) was then
 # read off by 246 counts before its decoder had measured the frame period
-# (ENCODER_JUMP at boot, twin/tests/defects.rs defect6). The decoder must
-# report such readings as lost before this can be shipped (issue 14 notes).
-# Session 8 made the decoder refuse such readings and calibrate every
-# encoder's period at boot (37a85fe, 6712f8d; the twin then passed every
-# test with this option on), but reverted both: the image built at those
-# commits was not reproducible across build directories (the test
-# command's check below, on a fresh clone: two words of init_root's code
-# differed), with this option off and on. Re-land once that is found.
+# (ENCODER_JUMP at boot, twin/tests/defects.rs defect6). It stays off until
+# the decoder reports such readings as lost (SAFETY.md section 8) with an
+# image that is still reproducible across build directories (the check
+# below).
 IMAGE_PROFILE=()
 if [ "${IMAGE_SIZE_OPT:-0}" = 1 ]; then
   IMAGE_PROFILE=(--config 'profile.release.package."*".opt-level="z"'

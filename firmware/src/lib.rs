@@ -149,7 +149,7 @@ pub const fn boot_fault_log_code(fault: Option<HardwareFault>) -> u8 {
 /// lost samples in a row, so one more than that. A fast MT6816 (a frame
 /// shorter than the 1 ms sample) now and then has no fresh frame in a
 /// sample; judging the last sample alone failed such an encoder at random
-/// (the twin's 5 %-fast J1, issue 14 notes).
+/// (the twin's 5 %-fast J1, `twin/tests/defects.rs` defect6).
 pub const SELF_TEST_WINDOW: u32 = 3;
 
 /// Which axes failed the boot self-test: `recent[i]` has bit `k` set if

@@ -188,8 +188,8 @@ pub struct Controller<'a> {
     ack: u32,
     /// The tick's working record, owned here once instead of living in the
     /// interrupt's stack frame: the readings, sense, request, outputs,
-    /// events and step commands of the last tick (issue 14: the PIT frame
-    /// held every one of them, plus their copies, 624 B).
+    /// events and step commands of the last tick (a PIT frame holding every
+    /// one of them, plus their copies, measured 624 B).
     rec: TickRecord,
 }
 
@@ -250,7 +250,7 @@ impl Controller<'_> {
     /// The tick works in the controller's own record (`rec`), not in stack
     /// locals, and its steps are separate functions, so the interrupt's
     /// worst stack is the largest step's frame, not the sum of all of them
-    /// (issue 14: <= 512 B with the exception frame). The returned record
+    /// (budget: <= 512 B with the exception frame, docs/BENCHMARKS.md). The returned record
     /// is a copy for the simulator; the image discards it (no copy is made).
     #[inline(always)]
     pub fn tick<B: TickBoard + ?Sized>(&mut self, board: &mut B) -> TickRecord {

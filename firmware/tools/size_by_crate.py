@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Flash bytes of the release image by crate (issue 14: what each crate
-contributes to the image).
+"""Flash bytes of the release image by crate (what each crate contributes
+to the image).
 
 Usage: size_by_crate.py LLVM_NM ELF
 

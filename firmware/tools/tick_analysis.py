@@ -12,7 +12,7 @@ Usage: tick_analysis.py <objdump> <elf> <root-symbol> [stack-sizes-elf]
    panic_bounds_check, unwrap_failed, expect_failed, slice_*_fail, panic_fmt,
    the #[panic_handler] `panic`), or if an indirect call is reachable (unknown
    target: cannot be proved panic-free).
-3. 64-bit division check (issue 14): FAILS if a 64-bit (or 128-bit)
+3. 64-bit division check: FAILS if a 64-bit (or 128-bit)
    division helper of compiler-builtins (`__aeabi_uldivmod`,
    `__aeabi_ldivmod`, `__udivmoddi4`, `__divmoddi4`, `__udivti3`, ...) is
    reachable from the root: the Cortex-M7 divides 32-bit numbers in

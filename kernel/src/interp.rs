@@ -10,7 +10,7 @@
 //! and a speed is taken only if the set-point can still stop **at** the
 //! target from it, decelerating by `dv` per tick. So the set-point never
 //! passes a target it is moving toward, and the arm stops where it was told,
-//! never beyond (decision 1 of the motion-safety rules, `SAFETY.md` SR-18).
+//! never beyond (`SAFETY.md` SR-18).
 //!
 //! The braking test. From speed `c` (toward the target), decelerating by
 //! `dv` per tick covers `S(c) = dt * sum_k (c - k dv)+`. Writing

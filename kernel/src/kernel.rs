@@ -1,7 +1,8 @@
 //! The tick: sense -> estimate -> supervise -> act, for all six axes.
 //!
 //! This file holds the [`Kernel`] itself and its one entry point,
-//! [`Kernel::tick`], which runs the steps in a fixed order. The steps live
+//! [`Kernel::tick_into`] (which [`Kernel::tick`] wraps, adding the
+//! status), which runs the steps in a fixed order. The steps live
 //! in submodules along the kernel's seams:
 //!
 //! - [`params`]: every constant, derived once from the configuration

@@ -232,9 +232,9 @@ fn home_in_a_latched_state_is_refused<S: Scalar>() {
     assert!(out.events.iter().any(|e| matches!(e, Event::HomingStarted { .. })));
 }
 
-/// Decision 5: an arm at rest at its final target when the timeout expires
-/// holds (no latch); the next command continues without `<ENABLE>` (the
-/// configurator's jog ended in a latch before).
+/// An arm at rest at its final target when the timeout expires holds (no
+/// latch); the next command continues without `<ENABLE>` (a latch here
+/// would end every configurator jog; SR-29).
 fn a_timeout_at_rest_holds_and_the_next_command_continues<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
@@ -257,7 +257,7 @@ fn a_timeout_at_rest_holds_and_the_next_command_continues<S: Scalar>() {
     assert!((r.plant.q[0] - p[0]).abs() < 2e-3);
 }
 
-/// Decision 5, the other half: a timeout while a set-point still moves
+/// The other half of SR-29: a timeout while a set-point still moves
 /// ramps down and latches.
 fn a_timeout_while_moving_still_latches<S: Scalar>() {
     let mut r = homed::<S>();
@@ -298,7 +298,7 @@ fn a_stale_pose_after_rehoming_is_refused<S: Scalar>() {
     }
 }
 
-/// Decision 8: the host link lost while moving (USB port closed) is a soft
+/// SR-31: the host link lost while moving (USB port closed) is a soft
 /// E-stop at once, go-to or not.
 fn link_loss_while_moving_stops_at_once<S: Scalar>() {
     let mut r = homed::<S>();

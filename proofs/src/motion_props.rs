@@ -1,4 +1,4 @@
-//! Issue 12's discrete rules, from states reached through the public API
+//! The kernel's discrete motion rules, from states reached through the public API
 //! (`setup`): only `<ENABLE>` clears a latch (SR-5), a lost link stops a
 //! moving arm at once (SR-31), `<HOME>` while moving stops first and then
 //! homes (SR-14). Every tick is also checked by the safety monitor.

@@ -1,4 +1,4 @@
-//! One-step invariants from a **symbolic kernel state** (issue 13, item 1).
+//! One-step invariants from a **symbolic kernel state**.
 //!
 //! The other harnesses start from states replayed from power-on, one
 //! concrete state each. These start from *any* state that satisfies the

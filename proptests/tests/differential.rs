@@ -12,7 +12,7 @@
 //! a row: a back-off that ends when the estimate crosses a distance can end
 //! a tick apart) their outputs are not compared; those ticks are counted.
 //!
-//! Bound, not equality, for the set-point profile (issue 12): its discrete
+//! Bound, not equality, for the set-point profile: its discrete
 //! decisions (accelerate, cruise, brake, land; the hold-versus-latch test
 //! that follows from them) can fall a tick apart in the two variants when a
 //! braking or landing test lands within its rounding allowance. Then one

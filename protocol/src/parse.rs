@@ -40,8 +40,8 @@
 //! the general path, which runs the checks one after the other (framing,
 //! field count, empty fields, SEQ, each number's syntax and decimals, the
 //! dialect, the lock, each conversion) and so reports the first error. Both
-//! end in the same limit check. That the two paths give what the parser
-//! before issue 14 (`tests/reference`) gives, on every input, is checked by
+//! end in the same limit check. That the two paths give what the reference
+//! parser (`tests/reference`, numbers converted from their text) gives, on every input, is checked by
 //! `tests/parser_equivalence.rs`, `tests/decimal_exhaustive.rs` and the fuzz
 //! targets.
 //!
@@ -793,7 +793,7 @@ mod tests {
             assert_eq!(number(bad), None, "{}", String::from_utf8_lossy(bad));
         }
         // Every string of up to 7 characters over a small alphabet: the
-        // verdict and decimals are the old check's, the mantissa the digits';
+        // verdict and decimals are `number_decimals`'s, the mantissa the digits';
         // the fast path's reading ([`well_formed_number`], [`number_of`]) is
         // the general one's wherever it accepts, and it accepts exactly the
         // numbers with a point and at most 9 digits (and `K` decimals).

@@ -1,5 +1,5 @@
 //! The integer decimal conversion (`Scalar::from_decimal`, used by the
-//! parser since issue 14) equals the text conversion it replaced
+//! parser) equals the text conversion
 //! (`Scalar::parse_decimal`: core's correctly rounded float parser for
 //! `f32`, `fixed`'s for `Fx`), bit for bit.
 //!

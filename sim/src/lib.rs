@@ -1,7 +1,7 @@
 //! The PAROL6 firmware's kernel and protocol against a simulated arm.
 //!
-//! [`root::Root`] wires the `kernel` and `protocol` crates exactly as the
-//! firmware's composition root does, on a [`plant::Plant`] whose encoders
+//! [`root::Root`] is the firmware's composition root (`firmware::root`, the
+//! code that is flashed) on a simulated board: a [`plant::Plant`] whose encoders
 //! produce real MT6816 PWM frames decoded with `hal-imxrt`'s pure decoder.
 //! [`runner`] runs [`scenario`]s against it and checks the safety
 //! requirements at every tick; [`live`] serves the wire protocol on a

@@ -221,7 +221,7 @@ fn ros2_driver_client_homes_and_reaches_a_goal() {
 
 /// PROTOCOL.md 3.2: grouped 4-decimal jog at 25 Hz; the final frame (every
 /// velocity 0) is a go-to, so the arm stops at its pose and holds; a second
-/// jog follows with no `<ENABLE>` (issue 12, decision 6).
+/// jog follows with no `<ENABLE>` (SAFETY.md SR-29).
 #[test]
 fn configurator_client_jogs_twice_without_enable() {
     let live = spawn_live();

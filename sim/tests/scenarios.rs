@@ -277,7 +277,7 @@ fn stream_resuming_after_silence_is_refused_while_far() {
     assert!(jumps > 10, "{:?}", r.refusals);
 }
 
-/// The wire checks accept every line issue 12 added (formatted by the
+/// The wire checks accept every event line of the motion rules (formatted by the
 /// protocol crate itself): none contains `nan`/`inf`, none starts with `<`.
 #[test]
 fn wire_checks_accept_the_new_lines() {

@@ -1,7 +1,7 @@
-//! Issue 11 defects 3-8 on the shipped Serial1 image (evidence kind:
-//! **emulated**). Each test failed on the image of main at 19d9f10 (run
-//! with `TWIN_ELF=` pointing at that build); the figures are in the test
-//! comments and twin/README.md.
+//! Twin defects 3-8 (twin/README.md) on the shipped Serial1 image (evidence
+//! kind: **emulated**). Each test fails on an image without the fix (the
+//! image of 19d9f10, run with `TWIN_ELF=` pointing at that build); the
+//! figures are in the test comments and twin/README.md.
 
 use twin::{boot_twin, Twin, MS};
 
@@ -37,7 +37,7 @@ fn all_submodules(t: &Twin) -> impl Iterator<Item = &twin::pwm::Submodule> {
 /// one just written (with `LDMOD = 0` the new values wait for the next
 /// `VAL1` match, which `RUN` does not cause). Homing J6 from 0.1 rad before
 /// its switch gives four starts by 1.4 s; the fourth restarts at ~10 k
-/// steps/s (58 912 cycles) from a slow approach. Before the fix 3 of the 4
+/// steps/s (58 912 cycles) from a slow approach. Without the fix 3 of the 4
 /// starts were stale and the fourth ran one period of the old 254 steps/s
 /// (2 362 176 cycles, 3.9 ms) before its first pulse at the new rate.
 #[test]
@@ -69,8 +69,8 @@ fn defect3_first_period_after_restart_at_new_rate() {
     assert!(starts >= 4, "{starts} starts");
     assert_eq!(stale, 0, "first periods at a stale rate: last (active, written) = {last:?} cycles");
     // The waveform criterion (first edge within 1.2 periods of the 1st-2nd
-    // gap) assumed a constant rate after a start; homing now ramps its
-    // speeds (issue 12), so the 1st-2nd gap is already at a higher rate.
+    // gap) assumes a constant rate after a start; homing ramps its speeds
+    // (SAFETY.md SR-25), so the 1st-2nd gap is already at a higher rate.
     // The register-level count of stale starts above is the check; the
     // waveform figures are printed for the reader.
     eprintln!("first edges later than 1.2 x the next gap (ramping rates): {late}");
@@ -78,7 +78,7 @@ fn defect3_first_period_after_restart_at_new_rate() {
 
 /// Defect 4: a Stop -> Run never puts an edge at the restart itself (the
 /// pulse sits at the end of each period). Homing J6 from 0.1 rad before
-/// its switch restarts it at 50 and 80 ms after `<HOME>`; before the fix
+/// its switch restarts it at 50 and 80 ms after `<HOME>`; without the fix
 /// both restarts gave a rising edge at once (2 of 3 starts by 160 ms; the
 /// first start ran reset values with no pulse at all). The stop/run
 /// hysteresis (no start below 25 steps/s) is host-tested in
@@ -172,7 +172,7 @@ fn panic_handler_drives_every_step_low() {
 }
 
 /// Defect 5: `SMCTRL2[DBGEN] = 1` kept the STEP counters running while a
-/// debugger halted the core (the PIT and RTWDOG stop). Before the fix a
+/// debugger halted the core (the PIT and RTWDOG stop). Without the fix a
 /// 50 ms halt during homing gave ~500 J6 pulses with no tick watching.
 #[test]
 fn defect5_debug_halt_stops_stepping() {
@@ -192,7 +192,7 @@ fn defect5_debug_halt_stops_stepping() {
 }
 
 /// Defect 7: defmt log statements are compiled into the image (the boot
-/// line at INFO at least). Before the fix (`DEFMT_LOG` unset): none at any
+/// line at INFO at least). Without the fix (`DEFMT_LOG` unset): none at any
 /// level, `.defmt` 3 bytes (encoding and version only).
 #[test]
 fn defect7_defmt_log_compiled_in() {
@@ -254,7 +254,7 @@ fn feedback_angles(t: &Twin) -> Vec<f64> {
 
 /// Defect 6: MT6816s whose oscillators run fast, J1 by 5 % (frame 586 957
 /// cycles, shorter than the 1 ms tick) and J4 by 9.5 %, are read
-/// correctly. Before the fix every reading of them was refused (periods
+/// correctly. Without the fix every reading of them was refused (periods
 /// under 606 000 cycles), the boot self-test failed (`FAULT HARDWARE
 /// SELF_TEST code=73`: encoders J1 and J4) and both reported 0.
 #[test]
@@ -279,7 +279,7 @@ fn defect6_encoder_5pct_fast_is_read() {
 }
 
 /// Defect 6: the QuadTimer input filter is on for the six encoder channels
-/// (`FILT` != 0). Before the fix `FILT = 0` (bypassed).
+/// (`FILT` != 0). Without the fix `FILT = 0` (bypassed).
 #[test]
 fn defect6_encoder_input_filter_enabled() {
     let mut t = boot_twin().unwrap();

@@ -139,14 +139,14 @@ fn booted_in_thread_code() -> Twin {
 /// Interrupt delivery follows the NVIC and PRIMASK semantics: a PIT
 /// expiry while PRIMASK is set stays pending, and the core takes it as
 /// soon as the mask is lifted, at the instruction after the `CPSIE`, even
-/// if the code masks again at once. The twin used to look at PRIMASK only
-/// when it stopped the CPU (every 200 cycles while masked), so a periodic
-/// main loop whose short unmasked stretches never lined up with those
-/// stops kept the tick pending: with issue 14's split tick the first PIT
-/// entry came 24 807 cycles (41 us) after its expiry, in a main loop whose
-/// critical sections last about 20 cycles (not a firmware latency). Here
-/// the window is one instruction long; the old twin let this test's tick
-/// wait for the end of the second masked delay.
+/// if the code masks again at once. A twin that looks at PRIMASK only when
+/// it stops the CPU (every 200 cycles while masked) keeps the tick pending
+/// in a periodic main loop whose short unmasked stretches never line up
+/// with those stops: with the split tick the first PIT entry came 24 807
+/// cycles (41 us) after its expiry, in a main loop whose critical sections
+/// last about 20 cycles (not a firmware latency). Here the window is one
+/// instruction long; such a twin lets this test's tick wait for the end of
+/// the second masked delay.
 #[test]
 fn pit_pending_while_masked_is_taken_right_after_the_unmask() {
     let mut t = booted_in_thread_code();
@@ -231,11 +231,11 @@ fn home_pulses(t: &mut Twin, ms: u64) -> [u64; 6] {
     t.board().step_pulses()
 }
 
-/// (c) Issue 11 defect 1: homing starts with J6 (step rate ~10 k steps/s),
+/// (c) Twin defect 1 (twin/README.md): homing starts with J6 (step rate ~10 k steps/s),
 /// so within 200 ms its STEP pin must have produced pulses. With the
 /// FlexPWM fault inputs left in their reset state (XBAR LOGIC_LOW, FLVL =
 /// 0 -> fault; DISMAP0 = 0xFFFF) the outputs stay disabled and no pulse
-/// reaches the pin: this failed on the image before the fix in
+/// reaches the pin: this failed on the image without the fix in
 /// `hal-imxrt/src/periph/step.rs` (0 pulses on every pin).
 #[test]
 fn defect1_home_produces_step_pulses() {
@@ -273,13 +273,13 @@ fn home_moves_j6_first() {
     assert!(t.board().dir_level(5));
 }
 
-/// Issue 11 defect 2: the HAL wrote `PRSC`/`VAL1`/`VAL3` and set `LDOK`
-/// every tick without waiting for (or clearing) a pending `LDOK`; buffered
-/// registers ignore writes while `LDOK` is set, so below ~1 000 steps/s
-/// (a period longer than a tick) most timing updates were lost (before the
-/// fix the twin counted 14 ignored writes by 100 ms after `<HOME>`, ~150 per
-/// 100 ms after, homing J6 from 0.1 rad before its switch). The HAL now
-/// clears a pending load with `CLDOK` before every buffered write.
+/// Twin defect 2 (twin/README.md): a HAL that writes `PRSC`/`VAL1`/`VAL3`
+/// and sets `LDOK` every tick without waiting for (or clearing) a pending
+/// `LDOK` loses most timing updates below ~1 000 steps/s (a period longer
+/// than a tick), since buffered registers ignore writes while `LDOK` is set
+/// (the twin counts 14 ignored writes by 100 ms after `<HOME>`, ~150 per
+/// 100 ms after, homing J6 from 0.1 rad before its switch). The HAL clears
+/// a pending load with `CLDOK` before every buffered write.
 #[test]
 fn defect2_no_timing_write_dropped_while_ldok_pending() {
     let mut q = twin::START_Q;

@@ -1,4 +1,4 @@
-//! Host side of the emulator evidence (issue 7).
+//! Host side of the emulator evidence.
 //!
 //! ```text
 //! emu-host record  DIR            record scenario_f32.bin / scenario_fx.bin
@@ -154,7 +154,7 @@ fn record<S: Bits>(v: &Validated) -> (Vec<u8>, u32, Vec<State>) {
     // braking distance), then silence: the set-point still moves when the
     // command timeout expires (about 130-180 ms of travel), so the timeout
     // starts the soft-stop ramp and latches (a stream that ends at rest at
-    // its target holds instead, issue 12).
+    // its target holds instead, SAFETY.md SR-29).
     seq += 1;
     let ahead: [f64; AXES] = std::array::from_fn(|i| last_pos[i] + sign[i] * 0.25);
     step(&mut k, &mut plant, Some(driver_frame(seq, &ahead, &[0.0; AXES])), &none);

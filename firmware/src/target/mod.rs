@@ -330,9 +330,9 @@ fn halt() -> ! {
 }
 
 /// The last-resort stop shared by the panic handler, the HardFault handler
-/// and the default handler (issue 11 defect 5: cortex-m-rt's own HardFault
-/// and DefaultHandler are `loop {}` and left STEP pulsing until the watchdog
-/// reset): interrupts off, every STEP pin low (masked, counter stopped, pad
+/// and the default handler (twin defect 5, twin/README.md: cortex-m-rt's
+/// own HardFault and DefaultHandler are `loop {}` and leave STEP pulsing
+/// until the watchdog reset): interrupts off, every STEP pin low (masked, counter stopped, pad
 /// switched to GPIO driven low), the marker for the next boot
 /// (`SelfTest(0x80)`), the LED on, then wait for the watchdog reset (the
 /// tick no longer feeds it: within 20 ms).

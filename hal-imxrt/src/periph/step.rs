@@ -19,17 +19,17 @@
 //!   "buffered registers are loaded and take effect immediately upon LDOK
 //!   being set"; `LDMOD` back to 0 for the retimes), software `FORCE` (with
 //!   `FRCEN`) to re-initialise the counter to `INIT`, unmask, run. The first
-//!   period therefore runs at the new rate (issue 11 defect 3: with
-//!   `LDMOD = 0` the values waited for the next `VAL1` match, i.e. one whole
+//!   period therefore runs at the new rate (twin defect 3, twin/README.md:
+//!   with `LDMOD = 0` the values wait for the next `VAL1` match, i.e. one whole
 //!   period at the old rate, 50 ms after a stop at 20 steps/s), and its
 //!   rising edge comes at the end of that period (defect 4: never at the
 //!   restart itself).
 //!
 //! `SMCTRL2[DBGEN] = 0`: the counters stop while a debugger halts the core
-//! (issue 11 defect 5), as the PIT and the watchdog do.
+//! (twin defect 5), as the PIT and the watchdog do.
 //!
 //! An axis on an XBAR route ([`PwmRoute::Xbar`], J6 on pin 7 in the original
-//! wiring, issue 11 defect 8): `TCTRL[PWAOT0] = 1` makes PWM_A drive the
+//! wiring, twin defect 8): `TCTRL[PWAOT0] = 1` makes PWM_A drive the
 //! submodule's `PWM_OUT_TRIG0`, which XBARA1 routes to the pad. The
 //! reference material does not say whether `MASK`/`OUTEN` act on the
 //! trigger path, so masking such an axis **selects XBARA1 input 0
@@ -46,8 +46,7 @@
 //! writes.
 //!
 //! Buffered registers (`CTRL[PRSC]`, `INIT`, `VAL0..VAL5`) ignore writes
-//! while the submodule's `LDOK` is set (issue 11 defect 2, shown by the
-//! twin), so every write of them is preceded by `CLDOK` for that submodule
+//! while the submodule's `LDOK` is set (twin defect 2, twin/README.md), so every write of them is preceded by `CLDOK` for that submodule
 //! and followed by `LDOK`. `MCTRL` read-modify-writes write the `LDOK` field
 //! as 0 (writing 0 has no effect; writing back a 1 read a moment earlier
 //! would re-arm another submodule's load that its reload has just cleared)
@@ -162,7 +161,7 @@ impl StepOutputs {
         // stop, masked
         ral::modify_reg!(ral::pwm, rb, MCTRL, |v| v & !MCTRL_LDOK & !(bit << 8));
         self.mask(f, true);
-        // Fault inputs (issue 11 defect 1, shown by the twin): at reset
+        // Fault inputs (twin defect 1, twin/README.md): at reset
         // FLVL = 0 makes a logic 0 a fault, the inputs come from XBARA1
         // outputs whose reset selection is LOGIC_LOW, and SMDISMAP0 maps
         // every fault to A and B, so every output would stay disabled.

@@ -14,15 +14,14 @@
 //! The C++ wiring put J4 on pin 8 (FlexPWM1 sm3 A) and J6 on pin 7, whose
 //! own FlexPWM function is FlexPWM1 sm3 **B**: one submodule, one counter,
 //! so J4 and J6 could never step at different rates. Pin 7 (GPIO_B1_01) has
-//! another route (issue 11 defect 8): its ALT1 is `XBAR1_INOUT15`, and a
+//! another route (twin defect 8, twin/README.md): its ALT1 is `XBAR1_INOUT15`, and a
 //! free submodule's trigger output can reach it through XBARA1. J6 uses
 //! FlexPWM2 submodule 3 (free in this map) with `TCTRL[PWAOT0] = 1` (its
 //! PWM_A waveform drives `PWM_OUT_TRIG0`), XBARA1 input 47
 //! (`FLEXPWM2_PWM4_OUT_TRIG0_1`, NXP SDK `fsl_xbara` input table for the
 //! RT1062) selected for output 15 (`SEL7[SEL15]`), `IOMUXC_GPR6` bit 27
 //! (`IOMUXC_XBAR_DIR_SEL_15` = output) and the XBAR1 clock gate (CCGR2
-//! CG11). The period math is unchanged (same submodule as the old pin 36
-//! fix). So **no rewiring** is needed. The cargo feature `j6-pin36` of the
+//! CG11). The period math is that of pin 36 (the same submodule). So **no rewiring** is needed. The cargo feature `j6-pin36` of the
 //! firmware selects [`J6_PIN36_PIN_MAP`] instead (J6 STEP moved to pin 36,
 //! GPIO_B1_02, FlexPWM2 sm3 A on the pad directly, ALT6), the wiring of
 //! earlier firmware.
@@ -59,8 +58,8 @@
 //! Pad, GPIO bit, FlexPWM/QuadTimer function and ALT values come from the
 //! Teensy 4.1 core (`pwm.c` / FreqMeasureMulti tables: "FlexPWM2_3_A 36
 //! B1_02 ALT6", ...), teensy4-rs `teensy4-pins` (pin -> pad) and imxrt-iomuxc
-//! (ALT values of FlexPWM pads, LPUART6 daisy); issue 11 checked them and
-//! the QuadTimer3 select inputs against the reference material. The XBAR
+//! (ALT values of FlexPWM pads, LPUART6 daisy), checked with the
+//! QuadTimer3 select inputs against the reference material. The XBAR
 //! route: `GPIO_B1_01` ALT1 = `XBAR1_INOUT15` and the GPR6 bit from the NXP
 //! SDK pin/GPR headers; the input number from its XBARA1 input table.
 

@@ -164,8 +164,8 @@ pub const PLAN_MAX_RATE_MHZ: u32 = 1 << 28;
 
 /// A checked [`StepConfig`] with every constant the conversion of a rate
 /// needs computed once: [`StepPlan::command`] runs in the tick interrupt
-/// with no 64-bit division (the C++ firmware, and this HAL before issue 14,
-/// divided 64-bit numbers up to 8 times per axis per tick).
+/// with no 64-bit division ([`reference_step_command`], like the C++
+/// firmware, divides 64-bit numbers up to 8 times per axis per tick).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StepPlan {
     min_rate_mhz: u32,
@@ -296,8 +296,8 @@ const fn div_u16(n: u64, d: u64) -> Option<u16> {
     Some(q as u16)
 }
 
-/// The conversion as the HAL did it before issue 14 (a 64-bit division per
-/// prescaler tried): the reference [`StepPlan::command`] is checked against.
+/// The straightforward conversion (a 64-bit division per prescaler tried):
+/// the reference [`StepPlan::command`] is checked against.
 pub const fn reference_step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand, StepRateError> {
     if !cfg.is_valid() {
         return Err(StepRateError::BadConfig);
@@ -366,7 +366,7 @@ pub struct Compares {
     pub off: u16,
 }
 
-/// The pulse sits at the **end** of each period (issue 11 defect 4): high
+/// The pulse sits at the **end** of each period (twin defect 4): high
 /// from count `period - 1 - pulse` to `period - 1`. A (re)started counter
 /// therefore gives its first rising edge one period (minus the pulse) after
 /// the start, never at once, and a Stop within the first period emits no
@@ -423,7 +423,7 @@ pub enum UpdatePlan {
 /// then restarts, so no STEP edge ever follows a DIR change by less than the
 /// settle time.
 ///
-/// Stop/run hysteresis (issue 11 defect 4): [`step_command`] stops below
+/// Stop/run hysteresis (twin defect 4): [`step_command`] stops below
 /// `cfg.min_rate_mhz`; a **stopped** output starts only when the commanded
 /// period is at most [`StepConfig::start_max_ticks`] (|rate| >=
 /// `cfg.start_rate_mhz`), otherwise it stays stopped (`Idle`). A running

@@ -116,8 +116,8 @@ impl<S: Scalar> Axis<S> {
             // grown by one tick each): the twin showed the encoder decoder's
             // readings off by up to 10 % of the count until it has measured
             // a fast MT6816's frame period (127 counts on J1 at 5 % fast, at
-            // rest, at boot); the wider window rides through them (issue 11
-            // notes; the decoder should report them as lost).
+            // rest, at boot); the wider window rides through them (the
+            // decoder does not yet report them as lost: SAFETY.md section 8).
             let window = p.max_jump.unsigned_abs().saturating_mul(self.invalid.saturating_add(1));
             let delta = count.map(|c| (c, self.unwrap.delta(c)));
             match delta {

@@ -7,8 +7,8 @@
 //!   the board's step configuration) and the HAL's frame decode (every
 //!   `u16` high time x every period in the accepted range and one beyond
 //!   each end; outside it both implementations return at the same first
-//!   comparison) are swept whole. The two HAL sweeps compare issue 14's
-//!   division-free code with the code it replaced (tagged HAL, not a
+//!   comparison) are swept whole. The two HAL sweeps compare the tick's
+//!   division-free code with the straightforward reference code (tagged HAL, not a
 //!   SAFETY.md requirement).
 //! - **slice**: one argument of a multi-argument function enumerated
 //!   completely (all 2^32 `I8F24` or `f32` bit patterns, NaNs, infinities,
@@ -228,8 +228,8 @@ fn main() {
         },
     ));
 
-    // The tick's step conversion (issue 14): `StepPlan::command`, with no
-    // 64-bit division, equals the HAL's former conversion for every i32
+    // The tick's step conversion: `StepPlan::command`, with no 64-bit
+    // division, equals the reference conversion for every i32
     // rate, for the board's configuration. Not a safety requirement of
     // SAFETY.md (tagged HAL): the equality that lets the faster code replace
     // the tested one. Rates beyond the maximum are AboveMax in both, decided
@@ -258,7 +258,7 @@ fn main() {
         ));
     }
 
-    // The tick's frame decode (issue 14): `decode_frame`, on 32-bit
+    // The tick's frame decode: `decode_frame`, on 32-bit
     // arithmetic, equals `decode_window` with the frame config (one u64
     // division) for every u16 high time and every period from one below
     // MIN_PERIOD_CYCLES to one above MAX_PERIOD_CYCLES; outside that range

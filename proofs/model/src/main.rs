@@ -36,7 +36,7 @@
 //!   `tests::model_config_relaxes_exactly_the_named_rules`: zero homing
 //!   back-off (a stationary arm never travels one), 8 ms homing timeouts
 //!   and a 4 ms soft-stop ramp (faster than `max_acceleration`, PAROL6's).
-//!   Since issue 12 the kernel's continuous state (set-point velocities,
+//!   The kernel's continuous state (set-point velocities,
 //!   following-error paths, homing ramps) keeps the model from finishing:
 //!   the test command runs it bounded (`--bounded`, sampled evidence).
 //! - The full configuration, to fit its time budget, explores during homing

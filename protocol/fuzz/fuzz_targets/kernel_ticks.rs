@@ -234,11 +234,11 @@ fn run<S: Variant>(inp: &mut Input<'_>, fresh: bool) {
             assert!(k.invariant(), "state invariant broken: {k:?}");
             let facts = wit.after(&plant, &out);
             let checked = mon.check(&sense, sent.as_ref(), &out, Some(&k.homing_phases()), Some(&facts));
-            // (Issue 14's fuzzing found <HOMEn> in the tick the link is
-            // lost, input [55, 36, 36, 45, 61, 162]: the run starts and
-            // fails in one tick, Operational -> Stopping with the run's
-            // joints unhomed. The kernel is right; the monitor now reads the
-            // tick's HomingStarted event: kernel/tests/link_and_home.rs.)
+            // (<HOMEn> in the tick the link is lost, input [55, 36, 36, 45,
+            // 61, 162]: the run starts and fails in one tick, Operational ->
+            // Stopping with the run's joints unhomed. The monitor tells this
+            // stop from one entered from Operational by the tick's
+            // HomingStarted event: kernel/tests/link_and_home.rs.)
             if let Err(e) = checked {
                 panic!("monitor: {e} (tick {ticks}, {before:?} -> {after:?})");
             }

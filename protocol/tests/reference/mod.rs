@@ -1,6 +1,6 @@
-//! The parser as it was before issue 14 (numbers converted from their text
-//! by `Scalar::parse_decimal`), kept verbatim as the reference the current
-//! parser must equal on every input: same verdict, same error, and
+//! The reference parser (numbers converted from their text by
+//! `Scalar::parse_decimal`): the straightforward form the shipped parser
+//! must equal on every input: same verdict, same error, and
 //! bit-identical values. Used by `tests/decimal_exhaustive.rs`,
 //! `tests/parser_equivalence.rs` and the fuzz targets (included there by
 //! `#[path]`).
@@ -38,7 +38,7 @@ fn sat_u8(n: usize) -> u8 {
     u8::try_from(n).unwrap_or(u8::MAX)
 }
 
-/// `Parser::parse` before issue 14, with `p`'s limits and lock.
+/// The reference `Parser::parse`, with `p`'s limits and lock.
 pub fn parse<S: Scalar>(p: &Parser<S>, line: &[u8]) -> Result<Command<S>, ParseError> {
     let rest = line.strip_prefix(b"<").ok_or(ParseError::MissingStart)?;
     let end = rest.iter().position(|&b| b == b'>').ok_or(ParseError::MissingEnd)?;
