@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Kani harnesses of proofs/ for CI (Kani cannot run on the development
-# machines: see ../shared/spec/VERIFICATION.md and SAFETY.md).
+# machines: see docs/spec/evidence.md section 2 and SAFETY.md).
 #
 #   ci/kani.sh list               harness names (every `#[kani::proof]` fn in proofs/src/*.rs)
 #   ci/kani.sh run NAME...        cargo kani on each named harness, one at a time,

@@ -1,6 +1,6 @@
 //! Configuration as typed constant data, checked when the crate is compiled.
 //!
-//! [`PAROL6`] holds the values of `ROBOT.md`. [`check`] is a `const fn`; the
+//! [`PAROL6`] holds the values of `docs/spec/robot.md`. [`check`] is a `const fn`; the
 //! crate evaluates it on [`PAROL6`] in a constant, so an inconsistent
 //! configuration (a velocity the step generator cannot reach, a runaway
 //! threshold at or below the clamp, unordered limits, a homing sequence that
@@ -47,7 +47,8 @@ pub const ENCODER_FRAME_S: f64 = 4119.0 * 250e-9;
 /// Noise allowance of the encoder plausibility check, in counts.
 pub const JUMP_SLACK_COUNTS: i32 = 8;
 
-/// Homing groups in the seed's order: J6; then J5 and J4; then J1, J2, J3.
+/// Homing groups in the arm's order (docs/spec/robot.md section 4): J6;
+/// then J5 and J4; then J1, J2, J3.
 /// Bit `i` is joint `J(i+1)`. Not configurable: the order is a mechanical fact
 /// of the arm, and the safety argument depends on it.
 pub const HOMING_GROUPS: [u8; 3] = [0b10_0000, 0b01_1000, 0b00_0111];
@@ -339,8 +340,8 @@ const fn homing(
     HomingConfig { direction, fast_speed, slow_speed: 0.05, backoff: 0.05, switch_position, timeout_ms, max_travel }
 }
 
-/// The PAROL6 as in `ROBOT.md` section 1. Homing directions, switch angles
-/// and speeds are not in the spec: the values here put each switch 0.02 rad
+/// The PAROL6 as in `docs/spec/robot.md` section 1. Homing directions,
+/// switch angles and speeds are not in it: the values here put each switch 0.02 rad
 /// beyond the URDF limit in the seek direction and must be confirmed on the
 /// robot before first use.
 #[allow(clippy::approx_constant)] // J6's limits are the URDF's literal 6.283, not TAU
@@ -354,7 +355,7 @@ pub const PAROL6: ArmConfig = ArmConfig {
         joint(4.0, 32, 6.0, 2.0, (-2.1, 2.1), homing(Direction::Negative, 1.0, -2.12, 10_000, (-2.1, 2.1))),
         joint(10.0, 16, 6.0, 2.0, (-6.283, 6.283), homing(Direction::Positive, 2.0, 6.303, 12_000, (-6.283, 6.283))),
     ],
-    // alpha 0.1 and beta 0.005 at 1 kHz (ROBOT.md), per second.
+    // alpha 0.1 and beta 0.005 at 1 kHz (docs/spec/robot.md section 1), per second.
     observer_position_gain: 100.0,
     observer_velocity_gain: 5000.0,
     deadband: 0.0,

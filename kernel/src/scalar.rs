@@ -15,7 +15,7 @@
 //! A signed 32-bit word with 8 integer and 24 fractional bits:
 //! range [-128, 128), resolution 2^-24 = 5.96e-8.
 //!
-//! *Range* (ROBOT.md section 1): the widest joint range is J6, -6.283..6.283
+//! *Range* (docs/spec/robot.md section 1): the widest joint range is J6, -6.283..6.283
 //! rad; before homing the observer's angle is relative to the power-on reading
 //! and a homing seek can travel the whole range, so joint angles stay within
 //! about +-13 rad. Velocities are at most 6 rad/s (runaway threshold 7.5

@@ -205,7 +205,7 @@ impl Authority {
 pub enum Request<S> {
     /// New motion target.
     Motion(MotionTarget<S>),
-    /// Home every axis in the seed's order.
+    /// Home every axis in the arm's order (docs/spec/robot.md section 4).
     Home,
     /// Home one joint (index 0..=5 for J1..J6); allowed only when the
     /// joints it depends on are homed.

@@ -317,7 +317,7 @@ fn runaway_faults_in_unhomed_where_no_path_is_followed<S: Scalar>() {
     assert!(n < 100, "{n} ticks");
 }
 
-/// C++ defect 4: enable cleared a fault while a limit switch was pressed.
+/// C++ defect 4 (docs/spec/robot.md section 6): enable cleared a fault while a limit switch was pressed.
 fn limit_switch_outside_homing_faults_and_enable_is_refused_while_pressed<S: Scalar>() {
     {
         // A fault that loses no zero keeps homing complete (H2).

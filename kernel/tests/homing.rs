@@ -107,7 +107,7 @@ fn homing_zero_comes_from_the_encoder_reading<S: Scalar>() {
     }
 }
 
-/// C++ defect 2: homing worked once.
+/// C++ defect 2 (docs/spec/robot.md section 6): homing worked once.
 fn second_homing_rezeroes<S: Scalar>() {
     let mut r = homed::<S>();
     r.tick(Some(Request::Home));

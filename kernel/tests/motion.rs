@@ -25,7 +25,7 @@ both!(
     dropped_packet_does_not_stretch_motion,
 );
 
-/// C++ defect 1: the first encoder read returned 0 and each joint drove
+/// C++ defect 1 (docs/spec/robot.md section 6): the first encoder read returned 0 and each joint drove
 /// toward it.
 fn power_on_does_not_move<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
@@ -260,7 +260,7 @@ fn acceleration_is_limited_in_operational<S: Scalar>() {
     assert!(prev[0] > 2.9, "reaches full speed: {}", prev[0]);
 }
 
-/// Tracking error at a 100 Hz command rate (ROBOT.md 5: under 8 mrad).
+/// Tracking error at a 100 Hz command rate (docs/spec/robot.md section 5: under 8 mrad).
 fn tracking_at_100_hz<S: Scalar>() {
     let mut r = homed::<S>();
     let q0 = r.plant.q;

@@ -22,7 +22,7 @@ both!(
 
 const HOME_POSE: [f64; AXES] = [0.0; AXES];
 
-/// C++ defect 4: commands during homing moved the arm when homing ended.
+/// C++ defect 4 (docs/spec/robot.md section 6): commands during homing moved the arm when homing ended.
 fn motion_refused_before_homing_and_during_homing<S: Scalar>() {
     let mut r = Rig::<S>::new(START);
     r.run(2);
@@ -44,7 +44,7 @@ fn motion_refused_before_homing_and_during_homing<S: Scalar>() {
     }
 }
 
-/// C++ defect 5: unparseable fields became 0.0 targets; NaN passed every clamp.
+/// C++ defect 5 (docs/spec/robot.md section 6): unparseable fields became 0.0 targets; NaN passed every clamp.
 fn nan_and_out_of_range_targets_are_rejected_whole<S: Scalar>() {
     let mut r = homed::<S>();
     let q = r.plant.q;

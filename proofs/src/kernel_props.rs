@@ -91,7 +91,7 @@ const POWER_ON_TICKS: u32 = 10;
 /// SR-1, SR-13, SR-15, SR-16: from power-on, any sequence of
 /// [`POWER_ON_TICKS`] requests and sensors: nothing moves unhomed; motion is
 /// refused outside Operational; in homing, only axes whose dependencies are
-/// homed move (the monitor's check, with its own copy of the seed's order),
+/// homed move (the monitor's check, with its own copy of the homing order),
 /// and the run reaches the second group.
 #[cfg_attr(not(kani), kani::loops)]
 fn from_power_on<S: Sym>() {

@@ -9,7 +9,7 @@
 //!
 //! Every tick a harness runs, setup included, goes through [`Checked`]:
 //! the one safety monitor (`monitor::Monitor`, written from SAFETY.md, with
-//! its own copy of the seed's homing order) checks it, so each harness
+//! its own copy of the arm's homing order) checks it, so each harness
 //! asserts every per-tick requirement (SR-1, 2, 4..11, 13, 15..19, 25) on
 //! every tick besides its own property.
 
@@ -103,7 +103,7 @@ pub fn new_kernel<S: Scalar>(config: &Validated) -> (Kernel<S>, Authority) {
     Kernel::new(config)
 }
 
-/// The seed's homing order (FIRMWARE_DEVELOPER_GUIDE.md section 6: J6; then
+/// The arm's homing order (docs/spec/robot.md section 4: J6; then
 /// J5 and J4; then J1, J2, J3), written out in the monitor independently of
 /// the kernel's tables so that a harness cannot inherit a mistake from them.
 pub use monitor::SEED_DEPENDENCIES;

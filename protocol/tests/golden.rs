@@ -1,4 +1,4 @@
-//! Golden tests: every example line of the spec parses to the expected
+//! Golden tests: every example line of docs/spec/hosts.md parses to the expected
 //! values (f32 and Fx), and formatted feedback passes both clients' rules.
 #![allow(clippy::approx_constant)] // the spec's literals (3.142, 1.5708) are data, not pi
 

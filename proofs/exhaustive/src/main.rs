@@ -1,6 +1,6 @@
 //! Enumeration of the kernel's per-axis functions on this machine
 //! (`cargo run -p exhaustive --release`), each sweep labelled with what it
-//! covers (VERIFICATION.md reserves "exhaustive" for whole domains):
+//! covers (docs/spec/evidence.md reserves "exhaustive" for whole domains):
 //!
 //! - **exhaustive**: every input of the function. Unwrapping (every pair
 //!   of 12-bit readings), the HAL's step conversion (every `i32` rate, for

@@ -25,7 +25,7 @@
 //! with [`runner::needs_unwind`]; see the `kani-shim-macros` crate.
 //!
 //! This is *sampled* or *exhaustive* evidence in the sense of
-//! `VERIFICATION.md`, never *symbolic*: only Kani itself gives that.
+//! `docs/spec/evidence.md`, never *symbolic*: only Kani itself gives that.
 
 pub use kani_shim_macros::{loops, proof, solver, unwind};
 

@@ -22,7 +22,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// One executed record: kind as VERIFICATION.md names it, cases/states,
+/// One executed record: kind as docs/spec/evidence.md names it, cases/states,
 /// result, what it covered.
 #[derive(Clone, Debug, PartialEq)]
 struct Record {
@@ -167,7 +167,7 @@ fn check_row(id: &str, kani: &str, executed: &str, run: &Run) -> (Vec<Record>, V
     let (mut missing, mut unclaimed) = (Vec::new(), Vec::new());
     let harnesses: Vec<&str> = kani.split('`').skip(1).step_by(2).collect();
 
-    // Kani harnesses under the shim: sampled evidence (VERIFICATION.md),
+    // Kani harnesses under the shim: sampled evidence (docs/spec/evidence.md),
     // whether the shim drew its inputs or enumerated the harness's own.
     let (mut drawn, mut enumerated, mut cases) = (0, 0, 0u64);
     for h in &harnesses {
