@@ -73,7 +73,7 @@ if [ "${QUICK:-0}" != "1" ]; then
     cargo run -p model --release --locked -- --bounded 150
     proofs/model/mutants.sh
 
-    step "parser: integer decimal conversion equals the former parser (every mantissa per field; protocol/tests/decimal_exhaustive.rs)"
+    step "parser: integer decimal conversion equals the reference parser (every mantissa per field; protocol/tests/decimal_exhaustive.rs)"
     cargo test -p protocol --release --locked --test decimal_exhaustive -- --ignored --nocapture
 
     step "fuzz: framer + parser, the receive path, the kernel's requests (bounded, 30 s in all)"

@@ -424,8 +424,8 @@ const _: () = {
 // `fixed` and i128 compile to there (a 64 x 64-bit multiply with overflow
 // detection for `saturating_mul`, `__multi3` and i128 shifts for the counts
 // and rates: together about 900 of the fixed-point tick's 3400 instructions,
-// docs/BENCHMARKS.md). Each returns exactly what the former expression
-// returned for every input; `tests::fx_fast_paths_equal_the_wide_reference`
+// docs/BENCHMARKS.md). Each returns exactly what the wide expression
+// (i64 / i128, as `fixed` computes it) returns for every input; `tests::fx_fast_paths_equal_the_wide_reference`
 // checks them against it.
 
 /// `I8F24::saturating_mul` on the raw bits. `fixed` computes
@@ -458,8 +458,8 @@ fn mag_product(a: u32, k: u64) -> (u64, u64) {
     (u64::from(a).wrapping_mul(u64::from(kh)), u64::from(a).wrapping_mul(u64::from(kl)))
 }
 
-/// `clamp(floor(n k / 2^24), i32)`, formerly computed in i128 (where the
-/// product, below 2^94, never saturates).
+/// `clamp(floor(n k / 2^24), i32)`, which the wide reference computes in
+/// i128 (where the product, below 2^94, never saturates).
 #[inline(always)]
 fn fx_from_counts_bits(n: i32, k: i64) -> i32 {
     let (hi, lo) = mag_product(n.unsigned_abs(), k.unsigned_abs());
@@ -487,13 +487,13 @@ fn fx_from_counts_bits(n: i32, k: i64) -> i32 {
 }
 
 /// `bits * k` with 72 fractional bits dropped, truncated toward zero
-/// (formerly in i128): `(hi 2^32 + lo) >> 72 = (hi + lo >> 32) >> 40`
+/// (in i128 in the wide reference): `(hi 2^32 + lo) >> 72 = (hi + lo >> 32) >> 40`
 /// (floor of a floor), and `hi + (lo >> 32) < 2^63` cannot overflow.
 #[inline(always)]
 fn fx_to_rate(bits: i32, k: i64) -> i32 {
     let (hi, lo) = mag_product(bits.unsigned_abs(), k.unsigned_abs());
     // The product is below 2^94, so `mag` is below 2^22 and fits an i32
-    // (the former code's saturation at i32::MAX could never apply).
+    // (a saturation at i32::MAX could never apply).
     let mag = (hi.wrapping_add(lo >> 32) >> (FX_FRAC + FX_FRAC + WIDE_EXTRA - 32)) as i32;
     if (bits < 0) != (k < 0) {
         mag.wrapping_neg()
