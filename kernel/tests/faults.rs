@@ -1,9 +1,10 @@
 //! What faults, on which tick and with which reason: following error and
 //! its direction rule, runaway, position limits, limit switches, encoder
 //! loss, jumps and implausible readings, the boot timeout, hardware
-//! overruns; a fault keeps its first reason (SAFETY.md SR-8..SR-10, SR-19,
-//! SR-28; docs/PROTOCOL.md 6.7). Both numeric variants, every tick checked
-//! by the safety monitor (the common rig).
+//! overruns; a fault keeps its first reason (SAFETY.md SR-3, SR-4, SR-5,
+//! SR-9, SR-10, SR-11, SR-19, SR-21, SR-28; docs/PROTOCOL.md 6.7). Both
+//! numeric variants, every tick checked by the safety monitor (the common
+//! rig).
 
 mod common;
 

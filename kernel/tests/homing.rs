@@ -2,7 +2,7 @@
 //! the encoder reading, re-homing, `<HOME>` queued during boot and started
 //! at once outside it, the settle wait before the run and the stop before
 //! it, faults during a run leaving its joints unhomed, a dead switch
-//! (SAFETY.md SR-14, SR-16; docs/PROTOCOL.md 6.6). Both numeric variants,
+//! (SAFETY.md SR-13, SR-14, SR-16, SR-28; docs/PROTOCOL.md 6.6). Both numeric variants,
 //! every tick checked by the safety monitor (the common rig).
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 

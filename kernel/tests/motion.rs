@@ -2,9 +2,9 @@
 //! a go-to completes and holds and never passes its target, every change of
 //! velocity stays within the acceleration limit, a stream is tracked at
 //! 100 Hz and a dropped sample does not stretch it, a go-to accepted as the
-//! link is lost stops at once (SAFETY.md SR-18, SR-25, SR-27, SR-29;
-//! docs/PROTOCOL.md 6). Both numeric variants, every tick checked by the
-//! safety monitor (the common rig), and the two variants side by side.
+//! link is lost stops at once (SAFETY.md SR-1, SR-18, SR-25, SR-27, SR-29,
+//! SR-31; docs/PROTOCOL.md 6). Both numeric variants, every tick checked by
+//! the safety monitor (the common rig), and the two variants side by side.
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 mod common;

@@ -1,9 +1,9 @@
 //! What the kernel takes as a target and what it refuses whole: before
 //! and during homing, non-finite and out-of-range values, the closed
 //! target limits (exactly at a limit is inside), and a stream sample
-//! farther than one segment can travel (SAFETY.md SR-3, SR-30;
-//! docs/PROTOCOL.md 6.3). Both numeric variants, every tick checked by the
-//! safety monitor (the common rig).
+//! farther than one segment can travel (SAFETY.md SR-3, SR-15, SR-17,
+//! SR-30; docs/PROTOCOL.md 6.3). Both numeric variants, every tick checked
+//! by the safety monitor (the common rig).
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 mod common;

@@ -3,7 +3,7 @@
 //! resynchronises without a jump and is refused while a cause is present
 //! (a fault detected in the same tick, a joint faster than its limit, a
 //! stop still ramping), and a lost encoder does not block it forever
-//! (SAFETY.md SR-5, SR-7; docs/PROTOCOL.md 6.4, 6.5). Both numeric
+//! (SAFETY.md SR-6, SR-7, SR-8; docs/PROTOCOL.md 6.4, 6.5). Both numeric
 //! variants, every tick checked by the safety monitor (the common rig).
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
