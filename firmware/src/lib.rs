@@ -36,6 +36,19 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 // defect 11: a 500 Hz loop with dt hard-coded to 1 ms).
 static_assertions::const_assert_eq!(hal_imxrt::pure::clock::TICK_HZ, kernel::config::PAROL6.tick_hz);
 
+// The kernel keeps its own encoder facts (it depends on no HAL); this crate
+// sees both, and they must be the HAL's: counts per revolution (the
+// unwrapper's modulus, the range of a valid reading) and the frame period
+// (the plausibility window allows two frames of motion).
+static_assertions::const_assert_eq!(kernel::config::COUNTS_PER_REV as u32, hal_imxrt::pure::mt6816::COUNTS_PER_REV);
+const _: () = {
+    use hal_imxrt::pure::mt6816::{FRAME_CLOCKS, PWM_CLOCK_NS};
+    let hal_s = FRAME_CLOCKS as f64 * PWM_CLOCK_NS as f64 * 1e-9;
+    let d = kernel::config::ENCODER_FRAME_S - hal_s;
+    // equal to a few rounding steps of 1.03e-3 s
+    assert!(d < 1e-15 && d > -1e-15);
+};
+
 /// Command queue slots (as the simulator's root).
 pub const CMD_SLOTS: usize = 8;
 /// Telemetry queue slots.
@@ -99,7 +112,7 @@ pub fn act_into(rates: &[i32; AXES], plan: &StepPlan, out: &mut [StepCommand; AX
 
 /// CPU cycles (600 MHz) -> whole microseconds.
 pub const fn cycles_to_us(cycles: u32) -> u32 {
-    cycles / (hal_imxrt::pure::clock::CPU_HZ / 1_000_000)
+    cycles / hal_imxrt::pure::clock::CYCLES_PER_US
 }
 
 /// Boot-fault codes carried in [`HardwareFault::SelfTest`].

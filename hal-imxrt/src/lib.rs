@@ -11,6 +11,7 @@
 //!   frame-period measurement), [`pure::encoder`] (MT6816 readings, the
 //!   decode's definition, the continuity tracker), [`pure::channel`]
 //!   (decoder + tracker: one encoder input as the firmware ships it),
+//!   [`pure::mt6816`] (the sensor's frame, clock and counts per revolution),
 //!   [`pure::clock`] (PIT load, QuadTimer prescaler, DIR settle, watchdog),
 //!   [`pure::uart`] (LPUART OSR/SBR search), [`pure::step`] (step rate ->
 //!   FlexPWM period/prescaler), [`pure::pins`] (Teensy 4.1 pin database and

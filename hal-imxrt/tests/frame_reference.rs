@@ -18,10 +18,12 @@ use hal_imxrt as hal;
 mod reference;
 
 use hal_imxrt::pure::channel::EncoderChannel;
-use hal_imxrt::pure::encoder::{decode_window, EncoderReading, FRAME_CLOCKS, START_CLOCKS};
+use hal_imxrt::pure::clock::{CYCLES_PER_QTIMER_TICK, CYCLES_PER_TICK};
+use hal_imxrt::pure::encoder::{decode_window, EncoderReading};
 use hal_imxrt::pure::frame::{
     decode_frame, FrameDecoder, Snapshot, FRAME_DECODE, MAX_PERIOD_CYCLES, MIN_PERIOD_CYCLES, NOMINAL_PERIOD_CYCLES,
 };
+use hal_imxrt::pure::mt6816::{COUNTS_PER_REV, FRAME_CLOCKS, START_CLOCKS};
 
 /// splitmix64.
 struct Rng(u64);
@@ -91,7 +93,7 @@ struct Stream {
 
 impl Stream {
     fn count(&self, k: u64) -> u64 {
-        (self.base + self.speed * k) % 4096
+        (self.base + self.speed * k) % u64::from(COUNTS_PER_REV)
     }
     fn start(&self, k: u64) -> f64 {
         self.phase + k as f64 * self.period
@@ -111,7 +113,8 @@ impl Stream {
     }
     /// Ticks of the 32-cycle counter clock in [a, b).
     fn ticks(a: f64, b: f64) -> u64 {
-        ((b / 32.0).ceil() - (a / 32.0).ceil()).max(0.0) as u64
+        let tick = f64::from(CYCLES_PER_QTIMER_TICK);
+        ((b / tick).ceil() - (a / tick).ceil()).max(0.0) as u64
     }
 }
 
@@ -146,7 +149,7 @@ fn run(s: &Stream, ticks: usize, rng: &mut Rng) -> (usize, usize, usize) {
     let mut prev = 0.0f64;
     let mut stats = (0, 0, 0);
     for i in 1..=ticks {
-        let mut t = i as f64 * 600_000.0 + rng.below(600) as f64;
+        let mut t = i as f64 * f64::from(CYCLES_PER_TICK) + rng.below(600) as f64;
         if rng.chance(s.glitch) {
             // a late or early snapshot (interrupt latency)
             t += rng.below(20_000) as f64 - 10_000.0;
@@ -213,7 +216,7 @@ fn decoder_equals_the_reference_on_simulated_streams() {
         let s = Stream {
             period: NOMINAL_PERIOD_CYCLES as f64 * rel,
             phase: rng.unit() * 700_000.0,
-            base: rng.below(4096),
+            base: rng.below(u64::from(COUNTS_PER_REV)),
             speed: [0, 1, 13, 40, 300][rng.below(5) as usize],
             stuck: match n % 24 {
                 5 => Some(false),

@@ -35,7 +35,9 @@
 
 /// Number of axes.
 pub const AXES: usize = 6;
-/// MT6816 counts per motor revolution (12-bit PWM output).
+/// MT6816 counts per motor revolution (12-bit PWM output). The kernel
+/// depends on no HAL: `firmware/src/lib.rs` checks at compile time that this
+/// and [`ENCODER_FRAME_S`] are the HAL's (`hal_imxrt::pure::mt6816`).
 pub const COUNTS_PER_REV: i32 = 4096;
 /// Unwrapped joint angles beyond this magnitude (rad) are absurd: a fault.
 pub const POSITION_ABS_MAX: f32 = 32.0;

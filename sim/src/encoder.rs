@@ -3,6 +3,7 @@
 //! Each encoder emits real frames: 4119 PWM clocks of 250 ns (150 CPU cycles
 //! at 600 MHz), HIGH for `16 + count` clocks, LOW to the end. The count of a
 //! frame is the motor angle at the frame's start.
+//! The figures are the HAL's (`hal_imxrt::pure::mt6816`, `pure::clock`).
 //!
 //! The channel is modelled as the i.MXRT1062 QuadTimer the firmware programs
 //! (gated count of the IPG/8 clock, one tick every 32 CPU cycles, while the
@@ -13,17 +14,19 @@
 //! [`hal_imxrt::pure::channel::EncoderChannel`]: the decoder that is flashed.
 //! The counter is exact: the number of timer edges that fall inside HIGH time.
 
-use hal_imxrt::pure::encoder::{LossReason, FRAME_CLOCKS, START_CLOCKS};
+use hal_imxrt::pure::clock;
+use hal_imxrt::pure::encoder::LossReason;
 use hal_imxrt::pure::frame::Snapshot;
+use hal_imxrt::pure::mt6816::{self, COUNTS_PER_REV, FRAME_CLOCKS, START_CLOCKS};
 
 use crate::rng::Rng;
 
-/// CPU cycles per PWM clock (250 ns at 600 MHz).
-pub const CYCLES_PER_PWM_CLOCK: f64 = 150.0;
-/// CPU cycles per QuadTimer tick (53.3 ns).
-pub const CYCLES_PER_QT_TICK: f64 = 32.0;
-/// CPU frequency.
-pub const CPU_HZ: u64 = 600_000_000;
+/// CPU cycles per PWM clock (250 ns at 600 MHz): the HAL's figure.
+pub const CYCLES_PER_PWM_CLOCK: f64 = mt6816::CYCLES_PER_PWM_CLOCK as f64;
+/// CPU cycles per QuadTimer tick (53.3 ns): the HAL's figure.
+pub const CYCLES_PER_QT_TICK: f64 = clock::CYCLES_PER_QTIMER_TICK as f64;
+/// CPU frequency: the HAL's figure.
+pub const CPU_HZ: u64 = clock::CPU_HZ as u64;
 /// CPU cycles a snapshot's register reads span (first `SCTRL` read to the
 /// second): an edge inside it makes the snapshot inconsistent, as on the chip.
 pub const SNAPSHOT_CYCLES: f64 = 60.0;
@@ -335,7 +338,7 @@ impl Encoder {
                 c += i64::from(off);
                 self.glitch = if n > 1 { Some((off, n - 1)) } else { None };
             }
-            let count = c.rem_euclid(4096) as f64;
+            let count = c.rem_euclid(i64::from(COUNTS_PER_REV)) as f64;
             let high_end = start + (f64::from(START_CLOCKS) + count) * CYCLES_PER_PWM_CLOCK * self.clock_scale;
             self.frames.push_back(Frame {
                 start,

@@ -130,7 +130,7 @@ impl Plant {
         let j = &self.cfg.joints[i];
         let sign = if j.encoder_reversed { -1.0 } else { 1.0 };
         let motor = sign * q * f64::from(j.gear_ratio) + self.opts.encoder_offset[i];
-        motor / std::f64::consts::TAU * 4096.0
+        motor / std::f64::consts::TAU * f64::from(hal_imxrt::pure::mt6816::COUNTS_PER_REV)
     }
 
     /// The raw (undebounced) switch input of axis `i`: true when closed.

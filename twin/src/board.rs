@@ -9,7 +9,10 @@ use crate::plant::Plant;
 use crate::pwm::{FlexPwm, PadRoute};
 use crate::qtimer::{InputWave, QTimer};
 
-/// CPU cycles per second.
+/// CPU cycles per second. The twin keeps its own figures for the chip and
+/// the sensors (here, `qtimer.rs`, `plant.rs`) on purpose rather than
+/// importing the HAL's: it is an independent model the image is checked
+/// against, so a wrong figure in the HAL shows as a disagreement.
 pub const CPU_HZ: u64 = 600_000_000;
 /// PIT interrupt number (i.MXRT1062).
 pub const IRQ_PIT: u32 = 122;

@@ -14,7 +14,9 @@
 
 use kernel::config::{ArmConfig, Direction, PAROL6};
 
-/// MT6816 PWM clock in CPU cycles (250 ns at 600 MHz).
+/// MT6816 PWM clock in CPU cycles (250 ns at 600 MHz). The sensor's figures
+/// are the twin's own, not imported from `hal_imxrt::pure::mt6816`, on
+/// purpose: an independent model of the sensor the image is checked against.
 pub const PWM_CLOCK_CYCLES: u64 = 150;
 /// Frame length in PWM clocks.
 pub const FRAME_CLOCKS: u64 = 4119;

@@ -1,7 +1,8 @@
 //! QuadTimer (TMR1..4) model, four channels each.
 //!
 //! Modelled (i.MXRT1060 RM, QTimer chapter): the primary clock source
-//! `CTRL[PCS]` = 8..15 (IPG / 2^(PCS-8); IPG = 150 MHz = 4 CPU cycles), count
+//! `CTRL[PCS]` = 8..15 (IPG / 2^(PCS-8); IPG = 150 MHz = 4 CPU cycles: the
+//! twin's own clock figure, independent of the HAL's on purpose), count
 //! modes `CM` = 0 (stopped), 1 (count rising edges of the primary source),
 //! 3 (count while the secondary input `SCS` is high: gated count); `ENBL`
 //! gates every channel. Input capture `SCTRL[CAPTURE_MODE]` 1 (rising), 2

@@ -17,7 +17,7 @@ use kernel::{EncoderSample, Fx, HardwareFault, Kernel, Sense, State};
 use protocol::{DialectLock, Parser};
 
 const TAU: f64 = std::f64::consts::TAU;
-const COUNTS_PER_REV: f64 = 4096.0;
+const COUNTS_PER_REV: f64 = kernel::config::COUNTS_PER_REV as f64;
 /// Power-on encoder offsets (arbitrary, as in proofs/src/setup.rs).
 const OFFSET: [f64; AXES] = [1000.0, 2000.0, 3000.0, 500.0, 1500.0, 2500.0];
 

@@ -34,7 +34,9 @@ use hal_imxrt::periph::tick::Tick;
 use hal_imxrt::periph::uart::Serial1;
 use hal_imxrt::periph::watchdog::Watchdog;
 use hal_imxrt::periph::{clocks, iomux, panic_stop};
-use hal_imxrt::pure::clock::{pit_load_value, rtwdog_toval, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US};
+use hal_imxrt::pure::clock::{
+    pit_load_value, rtwdog_toval, CYCLES_PER_MS, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US,
+};
 use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::pins::PinMap;
 use hal_imxrt::pure::step::StepCommand;
@@ -118,7 +120,7 @@ impl TickBoard for Teensy {
     }
     fn boot_wait_ms(&mut self) {
         let t = self.cycles.now();
-        self.cycles.wait_since(t, 600_000);
+        self.cycles.wait_since(t, CYCLES_PER_MS);
         self.wdog.feed();
     }
 }
@@ -266,8 +268,6 @@ struct MsClock {
     /// Cycles into the current millisecond, < `CYCLES_PER_MS`.
     rem: u32,
 }
-
-const CYCLES_PER_MS: u32 = 600_000;
 
 impl MsClock {
     fn new(now: u32) -> Self {

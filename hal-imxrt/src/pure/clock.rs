@@ -26,6 +26,13 @@ pub const OSC_HZ: u32 = 24_000_000;
 pub const PLL3_80M_HZ: u32 = 80_000_000;
 /// Control tick rate, Hz.
 pub const TICK_HZ: u32 = 1_000;
+/// CPU cycles per microsecond (600).
+pub const CYCLES_PER_US: u32 = CPU_HZ / 1_000_000;
+/// CPU cycles per millisecond (600 000).
+pub const CYCLES_PER_MS: u32 = CPU_HZ / 1_000;
+/// CPU cycles per control tick (600 000).
+pub const CYCLES_PER_TICK: u32 = CPU_HZ / TICK_HZ;
+const _: () = assert!(CPU_HZ.is_multiple_of(1_000_000) && CPU_HZ.is_multiple_of(TICK_HZ));
 
 /// Source of PERCLK_CLK_ROOT (CCM_CSCMR1\[PERCLK_CLK_SEL\]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,10 +3,8 @@
 //!
 //! # Signal
 //!
-//! One frame is [`FRAME_CLOCKS`] = 4119 PWM clocks of 250 ns (1029.75 us,
-//! 971.1 Hz). The output is HIGH for [`START_CLOCKS`] = 16 clocks plus `count`
-//! (0..=4095) clocks, then LOW to the end of the frame. So the duty is
-//! `(16 + count) / 4119`, in `[16/4119, 4111/4119]`.
+//! [`super::mt6816`]: one frame is 4119 PWM clocks of 250 ns, HIGH for
+//! 16 + `count` (0..=4095) clocks, then LOW to the end of the frame.
 //!
 //! # Measurement: whole frames, edge-aligned
 //!
@@ -48,14 +46,7 @@
 //! sensor's own, and a reading is off by the relative period error times
 //! `16 + count` (see [`super::frame`], "Frame period").
 
-/// PWM clocks per MT6816 frame.
-pub const FRAME_CLOCKS: u32 = 4119;
-/// HIGH start clocks preceding the count.
-pub const START_CLOCKS: u32 = 16;
-/// Largest 12-bit count.
-pub const MAX_COUNT: u16 = 4095;
-/// Counts per revolution.
-pub const COUNTS_PER_REV: u32 = 4096;
+use super::mt6816::{COUNTS_PER_REV, FRAME_CLOCKS, MAX_COUNT, START_CLOCKS};
 
 /// Why a reading is not a count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,12 +168,10 @@ pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeCon
 
 /// Circular distance between two counts on the 4096-count circle (0..=2048).
 pub const fn circular_distance(a: u16, b: u16) -> u16 {
-    let d = (a as i32 - b as i32).rem_euclid(COUNTS_PER_REV as i32) as u16;
-    if d > 2048 {
-        4096 - d
-    } else {
-        d
-    }
+    const REV: i32 = COUNTS_PER_REV as i32;
+    // 0 <= d < REV: the results fit a u16
+    let d = (a as i32 - b as i32).rem_euclid(REV);
+    (if d > REV / 2 { REV - d } else { d }) as u16
 }
 
 /// Per-axis continuity tracker (see module docs).
@@ -312,15 +301,15 @@ mod tests {
     use super::*;
     use crate::pure::clock::CYCLES_PER_QTIMER_TICK;
     use crate::pure::frame::FRAME_DECODE;
+    use crate::pure::mt6816::{CYCLES_PER_PWM_CLOCK, NOMINAL_FRAME_CYCLES};
 
     const CFG: DecodeConfig = FRAME_DECODE;
 
     /// Exact window (QuadTimer high ticks, CPU cycles) of one frame of an
-    /// ideal MT6816 at `count` with the nominal 250 ns clock (150 CPU
-    /// cycles).
+    /// ideal MT6816 at `count` with the nominal 250 ns clock.
     const fn ideal_frame(count: u16) -> (u32, u32) {
-        let cycles = FRAME_CLOCKS * 150;
-        let high_cycles = (START_CLOCKS + count as u32) * 150;
+        let cycles = NOMINAL_FRAME_CYCLES;
+        let high_cycles = (START_CLOCKS + count as u32) * CYCLES_PER_PWM_CLOCK;
         (high_cycles / CYCLES_PER_QTIMER_TICK, cycles)
     }
 
@@ -346,12 +335,12 @@ mod tests {
     #[test]
     fn out_of_range_duty() {
         // ~5 clocks of high per frame (below the 16-clock start pulse - 8)
-        let e = FRAME_CLOCKS * 150;
-        let h = 5 * 150 / 32;
+        let e = NOMINAL_FRAME_CYCLES;
+        let h = 5 * CYCLES_PER_PWM_CLOCK / CYCLES_PER_QTIMER_TICK;
         assert_eq!(decode_window(h, e, &CFG), EncoderReading::Lost(LossReason::DutyOutOfRange));
         // 4118 of 4119 clocks high, less two ticks: inside the tolerance
         // band above 16 + 4095, clamped to the largest count
-        let h = (4118 * 150 - 4 * 32) / 32;
+        let h = (4118 * CYCLES_PER_PWM_CLOCK - 4 * CYCLES_PER_QTIMER_TICK) / CYCLES_PER_QTIMER_TICK;
         assert_eq!(decode_window(h, e, &CFG), EncoderReading::Count(MAX_COUNT));
     }
 

@@ -99,11 +99,12 @@
 //! * `SCTRL[INPUT]` reflects the pin level (after `IPS`, which is 0, and the
 //!   input filter, which delays both edges alike).
 
-use super::clock::CYCLES_PER_QTIMER_TICK;
-use super::encoder::{DecodeConfig, EncoderReading, LossReason, FRAME_CLOCKS, MAX_COUNT, START_CLOCKS};
+use super::clock::{CYCLES_PER_QTIMER_TICK, CYCLES_PER_TICK};
+use super::encoder::{DecodeConfig, EncoderReading, LossReason};
+use super::mt6816::{FRAME_CLOCKS, MAX_COUNT, NOMINAL_FRAME_CYCLES, START_CLOCKS};
 
 /// Nominal frame period in CPU cycles (4119 * 250 ns at 600 MHz).
-pub const NOMINAL_PERIOD_CYCLES: u32 = FRAME_CLOCKS * 150;
+pub const NOMINAL_PERIOD_CYCLES: u32 = NOMINAL_FRAME_CYCLES;
 /// Shortest accepted period: nominal - 10 % (see the module docs).
 pub const MIN_PERIOD_CYCLES: u32 = NOMINAL_PERIOD_CYCLES - NOMINAL_PERIOD_CYCLES / 10;
 /// Longest accepted period (nominal + 10 %).
@@ -119,7 +120,7 @@ pub const PERIOD_ANCHOR_FRAMES: u32 = 64;
 /// exact up to 4 frames (error 0.4 frame).
 pub const FIRST_SPAN_FRAMES: u32 = 4;
 /// The control tick, CPU cycles.
-pub const TICK_CYCLES: u32 = 600_000;
+pub const TICK_CYCLES: u32 = CYCLES_PER_TICK;
 /// Before the period is measured, this many consecutive windows with an
 /// edge each make the decoder assume frames shorter than a tick (and wait
 /// for the measurement): at the nominal period one window in ~35 has no
@@ -580,7 +581,7 @@ mod reference;
 mod tests {
     extern crate std;
     use super::*;
-    use crate::pure::encoder::{circular_distance, MAX_COUNT, START_CLOCKS};
+    use crate::pure::encoder::circular_distance;
     use std::{boxed::Box, format, vec::Vec};
 
     /// The reference decoder in the same state as `d`.

@@ -6,6 +6,7 @@ pub mod clock;
 pub mod debounce;
 pub mod encoder;
 pub mod frame;
+pub mod mt6816;
 pub mod pins;
 pub mod step;
 pub mod uart;
