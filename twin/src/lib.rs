@@ -4,13 +4,16 @@
 
 pub mod board;
 pub mod elf;
+pub mod lpuart;
 pub mod machine;
 pub mod pads;
+pub mod pit;
 pub mod plant;
 pub mod pty;
 pub mod pwm;
 pub mod qtimer;
 pub mod scenario;
+pub mod wdog;
 
 pub use board::{Board, CPU_HZ};
 pub use machine::{Fault, Twin};

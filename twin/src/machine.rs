@@ -9,8 +9,9 @@ use std::collections::HashMap;
 
 use unicorn_engine::{Arch, ArmCpuModel, Context, Mode, Prot, RegisterARM, Unicorn};
 
-use crate::board::{Board, Reset, IRQ_PIT};
+use crate::board::{Board, Reset};
 use crate::elf::Image;
+use crate::pit::IRQ_PIT;
 use crate::plant::Plant;
 
 const ITCM: u64 = 0x0000_0000;

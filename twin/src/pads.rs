@@ -2,7 +2,11 @@
 //! chapter, written independently of `hal_imxrt::pure::pins`): which pad a
 //! Teensy pin is, where its `SW_MUX_CTL`/`SW_PAD_CTL` registers are, which
 //! GPIO bit it is, and what its ALT functions mean for the pins the twin
-//! wires to the plant.
+//! wires to the plant; and the board's view of its pads: GPIO ports,
+//! pad functions and levels, XBARA1 routing.
+
+use crate::board::{reset_value, Board, CCM, IOMUXC, IOMUXC_GPR};
+use crate::pwm::PadRoute;
 
 /// Pad group.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -201,3 +205,304 @@ pub fn wiring() -> &'static Wiring {
 
 /// IOMUXC offsets of the LPUART6 pads and daisy registers.
 pub const LPUART6_RX_SELECT: u32 = 0x550;
+
+// ------------------------------------------------------------ the board's pads
+
+/// GPIO port.
+#[derive(Clone, Debug, Default)]
+pub struct Gpio {
+    /// DR.
+    pub dr: u32,
+    /// GDIR.
+    pub gdir: u32,
+    /// Other registers (ICR1/2, IMR, ISR, EDGE_SEL) by offset/4.
+    pub other: [u32; 8],
+}
+
+impl Gpio {
+    /// Register write at offset `off` (`PSR` is read-only; `DR_SET`,
+    /// `DR_CLEAR`, `DR_TOGGLE` change `DR`).
+    pub fn write(&mut self, off: u32, v: u32) {
+        match off {
+            0x0 => self.dr = v,
+            0x4 => self.gdir = v,
+            0x8 => {}
+            0x84 => self.dr |= v,
+            0x88 => self.dr &= !v,
+            0x8C => self.dr ^= v,
+            o => self.other[((o / 4) as usize).min(7)] = v,
+        }
+    }
+}
+
+/// The pins as the board sees them: IOMUXC pad functions, GPIO levels,
+/// XBARA1 routing of the FlexPWM outputs.
+impl Board {
+    /// GPIO port `p` (0-based) register read at offset `off`: `PSR` is
+    /// the pads' levels.
+    pub(crate) fn gpio_read(&self, p: usize, off: u32) -> u32 {
+        let g = &self.gpio[p];
+        match off {
+            0x0 => g.dr,
+            0x4 => g.gdir,
+            0x8 => self.gpio_psr(p),
+            0x84..=0x8C => 0,
+            o => g.other[((o / 4) as usize).min(7)],
+        }
+    }
+
+    /// XBARA1 select registers (one byte per output, two per halfword) read
+    /// at offset `off`.
+    pub(crate) fn xbar_read(&self, off: u32, size: usize) -> u32 {
+        let i = (off & !1) as usize;
+        let byte = |k: usize| u32::from(*self.xbar.get(k).unwrap_or(&0));
+        let v16 = byte(i) | (byte(i + 1) << 8);
+        if size == 4 {
+            v16 | (byte(i + 2) << 16) | (byte(i + 3) << 24)
+        } else {
+            v16
+        }
+    }
+
+    /// XBARA1 select registers written at offset `off`; remembers each
+    /// output's last FlexPWM trigger.
+    pub(crate) fn xbar_write(&mut self, off: u32, size: usize, value: u32) {
+        let bytes = value.to_le_bytes();
+        for (k, &b) in bytes.iter().enumerate().take(size) {
+            let i = off as usize + k;
+            if i < 132 {
+                self.xbar[i] = b & 0x7F;
+                if let Some(src) = self.xbar_trigger_source(i) {
+                    self.xbar_last_trigger.insert(i, src);
+                }
+            }
+        }
+    }
+
+    pub(crate) fn iomux(&self, off: u32) -> u32 {
+        self.regs.get(&(IOMUXC + off)).copied().unwrap_or(0)
+    }
+
+    /// ALT selected on a pad (SW_MUX_CTL bits 2:0) and SION.
+    pub fn pad_mux(&self, p: Pad) -> (u32, bool) {
+        let v = self.iomux(p.mux_offset());
+        (v & 7, v & 0x10 != 0)
+    }
+
+    /// The pad is driven by GPIO1..4 (ALT5 and the GPR26..29 bit clear).
+    pub(crate) fn pad_is_std_gpio(&self, p: Pad) -> bool {
+        let (port, bit) = p.gpio();
+        let gpr = self.regs.get(&(IOMUXC_GPR + 0x68 + 4 * (port as u32 - 1))).copied().unwrap_or(0);
+        self.pad_mux(p).0 == 5 && gpr & (1 << bit) == 0
+    }
+
+    /// Level driven onto a pad by GPIO (if it is a GPIO output).
+    pub fn gpio_out(&self, pin: u8) -> Option<bool> {
+        let p = teensy_pad(pin)?;
+        let (port, bit) = p.gpio();
+        let g = &self.gpio[port - 1];
+        if self.pad_is_std_gpio(p) && g.gdir & (1 << bit) != 0 {
+            Some(g.dr & (1 << bit) != 0)
+        } else {
+            None
+        }
+    }
+
+    /// DIR line of axis `i`: the GPIO level if driven, else low (driver
+    /// input pulled low).
+    pub fn dir_level(&self, i: usize) -> bool {
+        self.gpio_out(wiring().dir[i]).unwrap_or(false)
+    }
+
+    /// External level on a pad (what the outside world drives or pulls).
+    pub(crate) fn external_level(&self, p: Pad) -> bool {
+        for (i, &pin) in wiring().limit.iter().enumerate() {
+            if teensy_pad(pin) == Some(p) {
+                if self.plant.joints[i].switch_closed() {
+                    return false; // switch to ground
+                }
+                // open: only the pad's pull decides
+                let ctl = self.iomux(p.pad_offset());
+                let pke = ctl & (1 << 12) != 0;
+                let pue = ctl & (1 << 13) != 0;
+                let pus = (ctl >> 14) & 3;
+                return pke && pue && pus != 0;
+            }
+        }
+        false
+    }
+
+    pub(crate) fn gpio_psr(&self, port: usize) -> u32 {
+        let g = &self.gpio[port];
+        let mut v = 0u32;
+        for pin in 0..=41u8 {
+            let Some(p) = teensy_pad(pin) else { continue };
+            let (pt, bit) = p.gpio();
+            if pt != port + 1 {
+                continue;
+            }
+            let (alt, sion) = self.pad_mux(p);
+            let gpr = self.regs.get(&(IOMUXC_GPR + 0x68 + 4 * port as u32)).copied().unwrap_or(0);
+            if gpr & (1 << bit) != 0 || (alt != 5 && !sion) {
+                continue;
+            }
+            let level =
+                if alt == 5 && g.gdir & (1 << bit) != 0 { g.dr & (1 << bit) != 0 } else { self.external_level(p) };
+            if level {
+                v |= 1 << bit;
+            }
+        }
+        v
+    }
+
+    /// Effective function of a Teensy pin, as a string (tests, diagnostics).
+    pub fn pin_function(&self, pin: u8) -> String {
+        let Some(p) = teensy_pad(pin) else { return "unknown".into() };
+        let (alt, sion) = self.pad_mux(p);
+        if alt == 5 {
+            let (port, bit) = p.gpio();
+            return format!("GPIO{port}.{bit}{}", if self.pad_is_std_gpio(p) { "" } else { " (fast GPIO)" });
+        }
+        if let Some((m, s, b, a)) = pwm_function(p) {
+            if a == alt {
+                return format!("FLEXPWM{m}_PWM{}{s}", if b { 'B' } else { 'A' });
+            }
+        }
+        if let Some((a, inout)) = xbar_inout_function(p) {
+            if a == alt {
+                let dir = if self.pad_xbar_output(p).is_some() { "output" } else { "input" };
+                return format!("XBAR1_INOUT{inout} ({dir})");
+            }
+        }
+        if let Some((m, c, a, daisy)) = qtimer_function(p) {
+            if a == alt {
+                let selected = daisy.is_none_or(|(off, val)| self.iomux(off) & 3 == val);
+                return format!(
+                    "QTIMER{m}_TIMER{c}{}{}",
+                    if sion { " SION" } else { "" },
+                    if selected { "" } else { " (daisy selects another pad)" }
+                );
+            }
+        }
+        format!("ALT{alt}")
+    }
+
+    /// A register's value (stored, or its reset value).
+    pub(crate) fn reg(&self, a: u32) -> u32 {
+        self.regs.get(&a).copied().unwrap_or_else(|| reset_value(a))
+    }
+
+    /// XBARA1 output `out` (0..132) as a FlexPWM trigger: (module,
+    /// submodule) whose `PWM_OUT_TRIG0_1` is selected (inputs 40..=51 =
+    /// FlexPWM1..3 submodules 0..3, NXP SDK XBARA1 input table), if the
+    /// XBAR1 clock gate (CCGR2 CG11) is open.
+    pub(crate) fn xbar_trigger_source(&self, out: usize) -> Option<(usize, usize)> {
+        let gate = (self.reg(CCM + 0x70) >> 22) & 3 != 0;
+        let sel = usize::from(*self.xbar.get(out)?);
+        if gate && (40..=51).contains(&sel) {
+            Some(((sel - 40) / 4 + 1, (sel - 40) % 4))
+        } else {
+            None
+        }
+    }
+
+    /// The pad is an XBAR1_INOUT output (its ALT selected, `IOMUXC_GPR6`
+    /// direction bit `12 + n` set): the XBARA1 output number.
+    pub(crate) fn pad_xbar_output(&self, p: Pad) -> Option<usize> {
+        let (alt, inout) = xbar_inout_function(p)?;
+        let gpr6 = self.reg(IOMUXC_GPR + 0x18);
+        (self.pad_mux(p).0 == alt && gpr6 & (1 << (12 + inout)) != 0).then_some(inout)
+    }
+
+    /// Where a pad's level comes from, if a FlexPWM drives it: (module,
+    /// submodule, log index 0 = A / 1 = B on the pad, 2 = `PWM_OUT_TRIG0`
+    /// through XBARA1).
+    pub fn pad_pwm_source(&self, p: Pad) -> Option<(usize, usize, usize)> {
+        if let Some((m, s, b, a)) = pwm_function(p) {
+            if self.pad_mux(p).0 == a {
+                return Some((m, s, usize::from(b)));
+            }
+        }
+        let out = self.pad_xbar_output(p)?;
+        let (m, s) = self.xbar_trigger_source(out).or_else(|| self.xbar_last_trigger.get(&out).copied())?;
+        Some((m, s, 2))
+    }
+
+    /// Pad routing of each PWM output (the pad is muxed to it, directly or
+    /// through XBARA1).
+    pub(crate) fn pwm_routes(&self) -> [PadRoute; 4] {
+        let mut r = [PadRoute::default(); 4];
+        for pin in wiring().step {
+            let Some(p) = teensy_pad(pin) else { continue };
+            match self.pad_pwm_source(p) {
+                // only while the trigger (not LOGIC_LOW) is selected
+                Some((m, s, 2)) if self.pad_xbar_output(p).and_then(|o| self.xbar_trigger_source(o)).is_some() => {
+                    r[m - 1].trig0[s] = true
+                }
+                Some((_, _, 2)) => {}
+                Some((m, s, b)) => r[m - 1].routed[s][b] = true,
+                None => {}
+            }
+        }
+        r
+    }
+
+    /// One line per axis: the FlexPWM state of its STEP output.
+    pub fn step_report(&self) -> Vec<String> {
+        (0..6)
+            .map(|i| {
+                let pin = wiring().step[i];
+                let Some((m, s, b)) = self.step_source(i) else {
+                    return format!("J{} pin {pin} {}: no PWM reaches the pad", i + 1, self.pin_function(pin));
+                };
+                let pw = &self.pwm[m - 1];
+                let sm = &pw.sm[s];
+                let bit = if b == 1 { 4 + s } else { 8 + s };
+                format!(
+                    "J{} pin {pin} {} <- FLEXPWM{m} sm{s} {}: RUN={} OUTEN={} MASK={} fault-disabled={} (FCTRL0={:#06x} FSTS0={:#06x} DISMAP0={:#06x}) PRSC={} VAL1={} VAL2={} VAL3={} LDOK={} dropped-writes={} pulses={}",
+                    i + 1,
+                    self.pin_function(pin),
+                    ["A", "B", "OUT_TRIG0 via XBARA1"][b],
+                    u8::from(pw.mctrl & (1 << (8 + s)) != 0),
+                    u8::from(pw.outen & (1 << bit) != 0),
+                    u8::from(pw.mask & (1 << bit) != 0),
+                    pw.fault_disabled(s, b.min(1)),
+                    pw.fctrl,
+                    pw.read(0x18E),
+                    sm.dismap0(),
+                    sm.prsc,
+                    sm.val[1],
+                    sm.val[2],
+                    sm.val[3],
+                    u8::from(pw.mctrl & (1 << s) != 0),
+                    sm.dropped_writes,
+                    sm.log[b].pulses
+                )
+            })
+            .collect()
+    }
+
+    /// STEP pulses seen on each axis's STEP pin since power-on (the output
+    /// that drives the pad now).
+    pub fn step_pulses(&self) -> [u64; 6] {
+        core::array::from_fn(|i| match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].pulses,
+            None => 0,
+        })
+    }
+
+    /// The FlexPWM submodule log behind axis `i`'s STEP pin: (module,
+    /// submodule, log index) for a pad muxed to a PWM output, or for pin 7
+    /// routed through XBARA1 the trigger log.
+    pub fn step_source(&self, i: usize) -> Option<(usize, usize, usize)> {
+        self.pad_pwm_source(teensy_pad(wiring().step[i])?)
+    }
+
+    /// Rising-edge times (cycles) recorded on axis `i`'s STEP pin.
+    pub fn step_rises(&self, i: usize) -> Vec<u64> {
+        match self.step_source(i) {
+            Some((m, s, b)) => self.pwm[m - 1].sm[s].log[b].rises.clone(),
+            None => Vec::new(),
+        }
+    }
+}

@@ -16,8 +16,9 @@
 //! the simulator (which hands them over at once): ~7 ms for a driver line.
 
 use kernel::config::AXES;
-use sim::client::{configurator_line, driver_line, driver_view};
-use sim::scenario::{Action, Anchor, Client, Motion, Scenario};
+use sim::client::driver_view;
+use sim::scenario::{Action, Anchor, Scenario};
+use sim::stream::{Hosts, Stream};
 
 use crate::{Plant, Twin, MS};
 
@@ -81,47 +82,6 @@ pub fn plant_for(sc: &Scenario) -> Plant {
     plant
 }
 
-/// A motion stream in progress (the simulator's `Stream`).
-struct Stream {
-    client: Client,
-    start: u64,
-    end: u64,
-    period: f64,
-    next: f64,
-    motion: Motion,
-    p0: [f64; AXES],
-    finished: bool,
-}
-
-impl Stream {
-    /// Pose and velocity at `t` (ms): the simulator's own definition.
-    fn sample(&self, t: u64) -> ([f64; AXES], [f64; AXES]) {
-        self.motion.sample(&self.p0, self.start, self.end, t)
-    }
-}
-
-/// The two host programs' sequence numbers.
-#[derive(Default)]
-struct Hosts {
-    driver_seq: u32,
-    config_seq: u32,
-}
-
-impl Hosts {
-    fn frame(&mut self, client: Client, p: &[f64; AXES], v: &[f64; AXES]) -> String {
-        match client {
-            Client::Driver => {
-                self.driver_seq = self.driver_seq.wrapping_add(1);
-                driver_line(self.driver_seq.wrapping_sub(1), p, v)
-            }
-            Client::Configurator => {
-                self.config_seq = self.config_seq.wrapping_add(1);
-                configurator_line(self.config_seq.wrapping_sub(1), p, v)
-            }
-        }
-    }
-}
-
 /// Run `sc` on the image `elf`, 1 ms at a time, until its `end` (or `max`).
 pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
     let mut t = Twin::new(elf, plant_for(sc))?;
@@ -152,16 +112,9 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
             match action {
                 Action::Send(bytes) if cable => b.serial_send(bytes),
                 Action::Send(_) => {}
-                Action::Stream { client, rate_hz, duration_ms, motion } => streams.push(Stream {
-                    client: *client,
-                    start: ms,
-                    end: ms + duration_ms,
-                    period: 1000.0 / rate_hz,
-                    next: ms as f64,
-                    motion: *motion,
-                    p0: pose_now,
-                    finished: false,
-                }),
+                Action::Stream { client, rate_hz, duration_ms, motion } => {
+                    streams.push(Stream::new(*client, *rate_hz, *duration_ms, *motion, ms, pose_now))
+                }
                 Action::Goto { client, pose } => {
                     let l = hosts.frame(*client, pose, &[0.0; AXES]);
                     if cable {
@@ -174,17 +127,10 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
                 other => out.skipped.push(format!("{when} {other:?}")),
             }
         }
-        for s in streams.iter_mut().filter(|s| !s.finished) {
-            if (ms as f64) + 1e-9 < s.next {
-                continue;
-            }
-            s.next += s.period;
-            let (p, v) = s.sample(ms);
-            let l = hosts.frame(s.client, &p, &v);
+        for l in hosts.due(&mut streams, ms) {
             if cable {
                 t.board_mut().serial_send(l.as_bytes());
             }
-            s.finished = ms >= s.end;
         }
         ms += 1;
         t.run_until(ms * MS).map_err(|f| f.to_string())?;
