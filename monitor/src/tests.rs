@@ -4,7 +4,7 @@
 use super::*;
 use crate::plant::{Plant, Witness};
 use kernel::config::{PAROL6, PAROL6_VALIDATED};
-use kernel::{Authority, Kernel, KernelF32};
+use kernel::{Authority, Event, FaultReason, Kernel, KernelF32, MotionTarget, Reject, Request, RequestKind};
 use std::format;
 use std::string::ToString;
 
@@ -110,14 +110,14 @@ impl Rig {
     }
 
     /// The next tick with `tamper` must be reported against `sr`.
-    fn caught(&mut self, sr: &str, tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES])) -> Violation {
+    fn caught(&mut self, sr: Sr, tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES])) -> Violation {
         self.caught_req(sr, None, tamper)
     }
 
     /// The next tick, with `req` and `tamper`, must be reported against `sr`.
     fn caught_req(
         &mut self,
-        sr: &str,
+        sr: Sr,
         req: Option<Request<f32>>,
         tamper: impl FnOnce(&mut TickOutput<f32>, &mut [Phase; AXES]),
     ) -> Violation {
@@ -160,18 +160,18 @@ fn a_clean_run_has_no_violation_and_is_counted() {
 fn sr1_output_before_homing() {
     let mut r = Rig::new();
     r.run(3);
-    let v = r.caught("SR-1", |o, _| o.act.velocity[2] = 0.1);
+    let v = r.caught(Sr::Sr1, |o, _| o.act.velocity[2] = 0.1);
     assert_eq!(v.axis, None);
 }
 
 #[test]
 fn sr2_non_finite_and_too_fast_outputs_and_wrong_step_sign() {
     let mut r = Rig::homed();
-    let v = r.caught("SR-2", |o, _| o.act.velocity[1] = f32::NAN);
+    let v = r.caught(Sr::Sr2, |o, _| o.act.velocity[1] = f32::NAN);
     assert_eq!(v.axis, Some(1));
-    r.caught("SR-2", |o, _| o.act.velocity[0] = PAROL6.joints[0].max_velocity * 1.01);
-    r.caught("SR-2", |o, _| o.act.step_rate[3] = PAROL6.max_step_rate as i32 + 1);
-    r.caught("SR-2", |o, _| {
+    r.caught(Sr::Sr2, |o, _| o.act.velocity[0] = PAROL6.joints[0].max_velocity * 1.01);
+    r.caught(Sr::Sr2, |o, _| o.act.step_rate[3] = PAROL6.max_step_rate as i32 + 1);
+    r.caught(Sr::Sr2, |o, _| {
         o.act.velocity[4] = 0.0;
         o.act.step_rate[4] = 10;
     });
@@ -186,7 +186,7 @@ fn sr4_fault_tick_with_output() {
     r.run(20);
     r.plant.hardware_fault = Some(kernel::HardwareFault::TickOverrun);
     // The Fault state's own rule (SR-5) is checked after the fault tick's (SR-4).
-    r.caught("SR-4", |o, _| o.act.velocity[0] = 0.01);
+    r.caught(Sr::Sr4, |o, _| o.act.velocity[0] = 0.01);
 }
 
 #[test]
@@ -195,8 +195,8 @@ fn sr5_fault_without_reason_and_changed_reason() {
     r.plant.force_switch = 1;
     r.tick(None);
     assert_eq!(r.k.state(), State::Fault);
-    r.caught("SR-5", |o, _| o.status.fault = None);
-    r.caught("SR-5", |o, _| {
+    r.caught(Sr::Sr5, |o, _| o.status.fault = None);
+    r.caught(Sr::Sr5, |o, _| {
         if let Some(f) = o.status.fault.as_mut() {
             f.reason = FaultReason::Runaway { axis: 3 };
         }
@@ -213,7 +213,7 @@ fn sr6_enable_that_jumps() {
     r.run(5);
     let cap = r.auth.enable();
     let (_, res) = r.tick_with(Some(Request::Enable(cap)), |o, _| o.status.setpoint[5] += 0.01);
-    assert_eq!(res.expect_err("set-point jump after enable").sr, "SR-6");
+    assert_eq!(res.expect_err("set-point jump after enable").sr, Sr::Sr6);
 }
 
 #[test]
@@ -229,20 +229,20 @@ fn sr7_ramp_that_speeds_up() {
     assert_eq!(r.k.state(), State::Stopping);
     r.run(50); // halfway down the ramp: 1.5 times the speed is still below vmax
     assert_eq!(r.k.state(), State::Stopping);
-    let v = r.caught("SR-7", |o, _| o.act.velocity[0] *= 1.5);
+    let v = r.caught(Sr::Sr7, |o, _| o.act.velocity[0] *= 1.5);
     assert_eq!(v.axis, Some(0));
 }
 
 #[test]
 fn sr8_timeout_armed_without_a_command() {
     let mut r = Rig::homed();
-    r.caught("SR-8", |o, _| o.status.timeout_armed = true);
+    r.caught(Sr::Sr8, |o, _| o.status.timeout_armed = true);
 }
 
 #[test]
 fn sr9_runaway_estimate_without_fault() {
     let mut r = Rig::homed();
-    let v = r.caught("SR-9", |o, _| o.status.velocity[3] = PAROL6.joints[3].runaway_velocity * 1.1);
+    let v = r.caught(Sr::Sr9, |o, _| o.status.velocity[3] = PAROL6.joints[3].runaway_velocity * 1.1);
     assert_eq!(v.axis, Some(3));
 }
 
@@ -252,7 +252,7 @@ fn sr13_homing_order_swapped() {
     r.run(3);
     r.tick(Some(Request::Home));
     // J1 (axis 0) moving while J6 is still seeking: the seed's order forbids it.
-    let v = r.caught("SR-13", |o, ph| {
+    let v = r.caught(Sr::Sr13, |o, ph| {
         ph[0] = Phase::FastSeek;
         o.act.velocity[0] = 0.05;
     });
@@ -264,26 +264,26 @@ fn sr16_motion_outside_a_moving_phase() {
     let mut r = Rig::new();
     r.run(3);
     r.tick(Some(Request::Home));
-    r.caught("SR-16", |o, _| o.act.velocity[0] = 0.05);
+    r.caught(Sr::Sr16, |o, _| o.act.velocity[0] = 0.05);
 }
 
 #[test]
 fn sr19_position_outside_limits_without_fault() {
     let mut r = Rig::homed();
-    r.caught("SR-19", |o, _| o.status.position[2] = PAROL6.joints[2].limit_max + 1.0);
+    r.caught(Sr::Sr19, |o, _| o.status.position[2] = PAROL6.joints[2].limit_max + 1.0);
 }
 
 #[test]
 fn sr25_acceleration_step() {
     let mut r = Rig::homed();
-    let v = r.caught("SR-25", |o, _| o.act.velocity[1] = PAROL6.joints[1].max_velocity * 0.9);
+    let v = r.caught(Sr::Sr25, |o, _| o.act.velocity[1] = PAROL6.joints[1].max_velocity * 0.9);
     assert_eq!(v.axis, Some(1));
 }
 
 #[test]
 fn display_names_the_requirement_axis_and_numbers() {
     let mut r = Rig::homed();
-    let v = r.caught("SR-25", |o, _| o.act.velocity[1] = 0.5);
+    let v = r.caught(Sr::Sr25, |o, _| o.act.velocity[1] = 0.5);
     let s = v.to_string();
     assert!(s.starts_with("SR-25 J2: output stepped"), "{s}");
     assert!(s.contains("got 0.5") && s.contains("bound") && s.contains("Operational"), "{s}");
@@ -337,7 +337,7 @@ fn sr27_setpoint_velocity_step() {
     let mut r = moving(30);
     // 1 mrad more in one tick: within vmax/tick_hz (SR-18) but a velocity
     // change of 1 rad/s.
-    let v = r.caught("SR-27", |o, _| o.status.setpoint[0] += 0.001);
+    let v = r.caught(Sr::Sr27, |o, _| o.status.setpoint[0] += 0.001);
     assert_eq!(v.axis, Some(0));
     assert!(v.to_string().contains("velocity changed"), "{v}");
 }
@@ -348,7 +348,7 @@ fn sr27_setpoint_that_leaves_its_target() {
     r.run(5);
     // At rest at its target: one 10 um step away is within every
     // acceleration bound but leaves the target.
-    let v = r.caught("SR-27", |o, _| o.status.setpoint[2] += 1e-5 * 2.0);
+    let v = r.caught(Sr::Sr27, |o, _| o.status.setpoint[2] += 1e-5 * 2.0);
     assert_eq!(v.axis, Some(2));
     assert!(v.to_string().contains("passed the target"), "{v}");
 }
@@ -362,7 +362,7 @@ fn sr27_setpoint_outside_the_limits() {
     r.tick(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))));
     r.run(2000);
     assert_eq!(r.k.state(), State::Operational);
-    let v = r.caught("SR-27", |o, _| o.status.setpoint[0] = PAROL6.joints[0].limit_max + 2e-5);
+    let v = r.caught(Sr::Sr27, |o, _| o.status.setpoint[0] = PAROL6.joints[0].limit_max + 2e-5);
     assert!(v.to_string().contains("outside the joint limits") || v.to_string().contains("passed"), "{v}");
 }
 
@@ -379,7 +379,7 @@ fn sr29_holding_while_moving_and_latching_at_rest() {
     };
     assert!(hold.iter().any(|e| *e == Event::Holding), "{hold:?}");
     r.run(timeout - 2);
-    let v = r.caught("SR-29", |o, _| {
+    let v = r.caught(Sr::Sr29, |o, _| {
         o.events = hold;
         o.status.state = State::Operational;
         o.status.timeout_armed = false;
@@ -395,7 +395,7 @@ fn sr29_holding_while_moving_and_latching_at_rest() {
         events_after(&m, 0, None)
     };
     assert!(stop.iter().any(|e| matches!(e, Event::SoftEstop { .. })), "{stop:?}");
-    let v = h.caught("SR-29", |o, _| {
+    let v = h.caught(Sr::Sr29, |o, _| {
         o.events = stop;
         o.status.state = State::Stopping;
     });
@@ -410,7 +410,7 @@ fn sr5_home_accepted_while_latched() {
     let quiet = events_after(&r, 0, None);
     assert!(quiet.is_empty());
     // The kernel refuses it (Latched); the tampered tick drops the refusal.
-    let v = r.caught_req("SR-5", Some(Request::Home), |o, _| o.events = quiet);
+    let v = r.caught_req(Sr::Sr5, Some(Request::Home), |o, _| o.events = quiet);
     assert!(v.to_string().contains("HOME accepted"), "{v}");
     // And leaving SoftEstop for Homing on a HOME is no longer an exit.
     let started = {
@@ -418,7 +418,7 @@ fn sr5_home_accepted_while_latched() {
         h.run(3);
         events_after(&h, 0, Some(Request::Home))
     };
-    r.caught_req("SR-5", Some(Request::Home), |o, _| {
+    r.caught_req(Sr::Sr5, Some(Request::Home), |o, _| {
         o.events = started;
         o.status.state = State::Homing;
     });
@@ -437,14 +437,14 @@ fn sr7_homing_after_a_latching_stop_and_home_without_a_stop() {
         h.run(3);
         events_after(&h, 0, Some(Request::Home))
     };
-    let v = r.caught("SR-7", |o, _| {
+    let v = r.caught(Sr::Sr7, |o, _| {
         o.events = started;
         o.status.state = State::Homing;
     });
     assert!(v.to_string().contains("pending HOME"), "{v}");
     // HOME while moving must stop first (HomingAfterStop), not home at once.
     let mut r = moving(30);
-    let v = r.caught_req("SR-7", Some(Request::Home), |o, _| {
+    let v = r.caught_req(Sr::Sr7, Some(Request::Home), |o, _| {
         o.events = started;
         o.status.state = State::Homing;
         o.act.velocity = [0.0; AXES];
@@ -473,7 +473,7 @@ fn sr8_goto_that_arms_the_timeout() {
         o.status.timeout_armed = true;
     });
     let v = res.expect_err("an armed go-to");
-    assert_eq!(v.sr, "SR-8", "{v}");
+    assert_eq!(v.sr, Sr::Sr8, "{v}");
 }
 
 #[test]
@@ -483,7 +483,7 @@ fn sr30_far_stream_sample_accepted_and_near_one_refused() {
     let mut p = r.plant.q;
     p[0] += 0.5; // beyond 3 * 0.04 + 0.15 + 0.02 = 0.29 rad
     let far = Request::Motion(target(p, kernel::MotionKind::Stream));
-    let v = r.caught_req("SR-30", Some(far), |o, _| {
+    let v = r.caught_req(Sr::Sr30, Some(far), |o, _| {
         o.events = quiet;
         o.status.timeout_armed = true;
     });
@@ -496,7 +496,7 @@ fn sr30_far_stream_sample_accepted_and_near_one_refused() {
     let mut p = r.plant.q;
     p[0] += 0.1;
     let near = Request::Motion(target(p, kernel::MotionKind::Stream));
-    let v = r.caught_req("SR-30", Some(near), |o, _| {
+    let v = r.caught_req(Sr::Sr30, Some(near), |o, _| {
         o.events = refused;
         o.status.timeout_armed = false;
     });
@@ -516,7 +516,7 @@ fn sr31_link_lost_while_moving_without_a_stop() {
     let mut r = moving(20);
     r.plant.link_lost = true;
     let quiet = events_after(&Rig::homed(), 0, None);
-    let v = r.caught("SR-31", |o, _| {
+    let v = r.caught(Sr::Sr31, |o, _| {
         o.events = quiet;
         o.status.state = State::Operational;
     });
@@ -543,7 +543,7 @@ fn sr25_homing_output_step() {
     // The run rests homing_settle_ms (50 ms) before J6 seeks.
     r.run(70);
     assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
-    let v = r.caught("SR-25", |o, _| o.act.velocity[5] += 0.5);
+    let v = r.caught(Sr::Sr25, |o, _| o.act.velocity[5] += 0.5);
     assert_eq!(v.axis, Some(5));
 }
 
@@ -555,7 +555,7 @@ fn sr28_homing_travel_beyond_its_bound() {
     // The run rests homing_settle_ms (50 ms) before J6 seeks.
     r.run(70);
     assert_eq!(r.k.homing_phases()[5], Phase::FastSeek);
-    let v = r.caught("SR-28", |o, _| o.status.position[5] += PAROL6.joints[5].homing.max_travel + 0.01);
+    let v = r.caught(Sr::Sr28, |o, _| o.status.position[5] += PAROL6.joints[5].homing.max_travel + 0.01);
     assert_eq!(v.axis, Some(5));
 }
 
@@ -578,7 +578,7 @@ fn sr28_following_error_on_a_clean_plant_and_a_stall_without_one() {
     };
     assert!(matches!(fe_fault, Some(Fault { reason: FaultReason::FollowingError { axis: 0 }, .. })), "{fe_fault:?}");
     let mut r = Rig::homed();
-    let v = r.caught("SR-28", |o, _| {
+    let v = r.caught(Sr::Sr28, |o, _| {
         o.events = fe_events;
         o.status.fault = fe_fault;
         o.status.state = State::Fault;
@@ -602,7 +602,7 @@ fn sr28_following_error_on_a_clean_plant_and_a_stall_without_one() {
         res = res.and(c);
     }
     let v = res.expect_err("a stall without a fault");
-    assert_eq!((v.sr, v.axis), ("SR-28", Some(0)), "{v}");
+    assert_eq!((v.sr, v.axis), (Sr::Sr28, Some(0)), "{v}");
 }
 
 #[test]
@@ -612,5 +612,5 @@ fn sr19_joint_beyond_the_overrun_bound_on_a_clean_plant() {
     let beyond = f64::from(j.limit_max + PAROL6.overrun_bound(&j)) + 0.01;
     let (_, res) = r.tick_facts(None, |_, _| {}, |f| f.q[2] = beyond);
     let v = res.expect_err("beyond the overrun bound");
-    assert_eq!((v.sr, v.axis), ("SR-19", Some(2)), "{v}");
+    assert_eq!((v.sr, v.axis), (Sr::Sr19, Some(2)), "{v}");
 }
