@@ -138,13 +138,17 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
     let started = Instant::now();
     let tty = std::io::stderr().is_terminal();
     let mut reports: Vec<Report> = Vec::new();
+    // Every label as wide as the longest, so the verdicts line up.
+    let label_w = list.iter().map(|sc| sc.name.chars().count()).max().unwrap_or(0)
+        + 2 * (list.len().max(1).ilog10() as usize + 1)
+        + 4;
     for (k, sc) in list.iter().enumerate() {
         let label = format!("[{}/{}] {}", k + 1, list.len(), sc.name);
         let mut last = -1i64;
         let mut progress = |f: f64| {
             let pct = (f * 100.0) as i64;
             if tty && pct / 5 != last / 5 {
-                eprint!("\r{label:<40} {pct:>3}%");
+                eprint!("\r{label:<label_w$} {pct:>3}%");
                 let _ = std::io::stderr().flush();
                 last = pct;
             }
@@ -171,7 +175,7 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
         if tty {
             eprint!("\r");
         }
-        eprintln!("{label:<40} {verdict:<4} ({:.1} s simulated in {took:.3} s)", r.duration_ms as f64 / 1000.0);
+        eprintln!("{label:<label_w$} {verdict:<4} ({:.1} s simulated in {took:.3} s)", r.duration_ms as f64 / 1000.0);
         reports.push(r);
     }
     println!();
@@ -191,15 +195,19 @@ fn run_all(list: &[Scenario], opts: &RunOptions, out: &std::path::Path) -> Resul
         }
     }
     let abs = std::fs::canonicalize(out).unwrap_or_else(|_| out.to_path_buf());
-    println!("\nreports (.txt), plots (.svg) and line logs (.log): {}/", abs.display());
     let unsafe_runs = reports.iter().filter(|r| !r.safe()).count();
     println!(
-        "{} scenario(s) in {:.1} s: {} passed, {} failed{}",
+        "\n{} scenario(s) in {:.1} s: {} passed, {} failed{}",
         reports.len(),
         started.elapsed().as_secs_f64(),
         reports.len() - failed.len(),
         failed.len(),
         if unsafe_runs > 0 { format!(" ({unsafe_runs} with SAFETY VIOLATIONS)") } else { String::new() }
+    );
+    println!(
+        "reports: {}/<scenario>.txt, plots .svg, line logs .log; a real host program (ROS 2 driver, configurator) \
+         connects to the simulated arm with `cargo run -p sim --release -- live`",
+        abs.display()
     );
     Ok(if failed.is_empty() { ExitCode::SUCCESS } else { ExitCode::FAILURE })
 }

@@ -275,56 +275,147 @@ impl Report {
     }
 }
 
-/// The summary table of a set of runs.
+/// The summary table's columns: (header, right-aligned, meaning).
+pub const COLUMNS: [(&str, bool, &str); 10] = [
+    ("scenario", false, "the scenario's name (`sim list` describes each; its report is <name>.txt)"),
+    ("sim s", true, "simulated time the scenario ran, seconds"),
+    ("H2 s", true, "simulated time homing completed (the firmware's H2 report), seconds; - never homed"),
+    ("rms mrad", true, "tracking error, root mean square: kernel set-point vs true joint angle while following a stream, worst joint; - no stream followed"),
+    ("max mrad", true, "tracking error, largest, same samples and joint choice as rms"),
+    ("stop ms", true, "worst time from a burst's last command to standstill (every commanded speed below 0.01 rad/s); - no burst, never: it did not stop"),
+    ("rej", true, "frames and requests rejected, dropped or refused (wire, sequence, queue, kernel)"),
+    ("safety", false, "held: every safety requirement of SAFETY.md held at every tick (the monitor, the acceleration and the wire checks); VIOLATED otherwise"),
+    ("faults", false, "faults the kernel raised, in order; - none"),
+    ("expectations", false, "the scenario's expectations that held / all, ok or FAIL; informational ones do not decide the exit code"),
+];
+
+/// The cells of one report's summary row, in [`COLUMNS`] order.
+fn row(r: &Report) -> [String; COLUMNS.len()] {
+    let rms = r.tracking.iter().map(|e| e.rms_mrad()).fold(0.0, f64::max);
+    let max = r.tracking.iter().map(|e| e.max_mrad()).fold(0.0, f64::max);
+    let (rms, max) =
+        if r.tracking[0].n == 0 { ("-".into(), "-".into()) } else { (format!("{rms:.2}"), format!("{max:.2}")) };
+    let stop = match r.worst_stop() {
+        None => "-".to_string(),
+        Some(None) => "never".to_string(),
+        Some(Some(d)) => d.to_string(),
+    };
+    let mut faults: Vec<String> = r.faults.iter().map(|f| f.1.clone()).collect();
+    faults.dedup();
+    let faults = if faults.is_empty() { "-".to_string() } else { faults.join("; ") };
+    let held = r.expectations.iter().filter(|e| e.1).count();
+    let pending = r.expectations.iter().filter(|e| e.0.starts_with("PENDING")).count();
+    let exp = format!(
+        "{}/{} {}{}{}",
+        held,
+        r.expectations.len(),
+        if r.expectations_held() { "ok" } else { "FAIL" },
+        if pending > 0 { format!(" ({pending} pending kernel fix)") } else { String::new() },
+        if r.informational { " (informational)" } else { "" }
+    );
+    [
+        r.name.clone(),
+        format!("{:.1}", r.duration_ms as f64 / 1000.0),
+        r.homed_at.map(|t| format!("{:.1}", t as f64 / 1000.0)).unwrap_or("-".into()),
+        rms,
+        max,
+        stop,
+        r.rejected_total.to_string(),
+        if r.safe() { "held" } else { "VIOLATED" }.to_string(),
+        faults,
+        exp,
+    ]
+}
+
+/// The summary table of a set of runs, every column as wide as its widest
+/// cell, and a legend of the columns.
 pub fn summary(reports: &[Report]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:<26} {:>7} {:>7} {:>9} {:>9} {:>8} {:>6} {:>7}  {:<28} expectations",
-        "scenario", "sim s", "H2 s", "rms mrad", "max mrad", "stop ms", "rej", "safety", "faults"
-    );
-    for r in reports {
-        let rms = r.tracking.iter().map(|e| e.rms_mrad()).fold(0.0, f64::max);
-        let max = r.tracking.iter().map(|e| e.max_mrad()).fold(0.0, f64::max);
-        let (rms, max) =
-            if r.tracking[0].n == 0 { ("-".into(), "-".into()) } else { (format!("{rms:.2}"), format!("{max:.2}")) };
-        let stop = match r.worst_stop() {
-            None => "-".to_string(),
-            Some(None) => "never".to_string(),
-            Some(Some(d)) => d.to_string(),
-        };
-        let mut faults: Vec<String> = r.faults.iter().map(|f| f.1.clone()).collect();
-        faults.dedup();
-        let faults = if faults.is_empty() { "-".to_string() } else { faults.join("; ") };
-        let held = r.expectations.iter().filter(|e| e.1).count();
-        let pending = r.expectations.iter().filter(|e| e.0.starts_with("PENDING")).count();
-        let exp = format!(
-            "{}/{} {}{}{}",
-            held,
-            r.expectations.len(),
-            if r.expectations_held() { "ok" } else { "FAIL" },
-            if pending > 0 { format!(" ({pending} pending kernel fix)") } else { String::new() },
-            if r.informational { " (informational)" } else { "" }
-        );
-        let _ = writeln!(
-            s,
-            "{:<26} {:>7.1} {:>7} {:>9} {:>9} {:>8} {:>6} {:>7}  {:<28} {}",
-            r.name,
-            r.duration_ms as f64 / 1000.0,
-            r.homed_at.map(|t| format!("{:.1}", t as f64 / 1000.0)).unwrap_or("-".into()),
-            rms,
-            max,
-            stop,
-            r.rejected_total,
-            if r.safe() { "held" } else { "VIOLATED" },
-            faults,
-            exp
-        );
+    let rows: Vec<[String; COLUMNS.len()]> = reports.iter().map(row).collect();
+    let mut s = table(&rows);
+    let _ = writeln!(s, "\ncolumns:");
+    let name_w = COLUMNS.iter().map(|c| c.0.len()).max().unwrap_or(0);
+    for (name, _, meaning) in COLUMNS {
+        let _ = writeln!(s, "  {name:<name_w$}  {meaning}");
     }
-    let _ = writeln!(
-        s,
-        "(rms/max: worst joint, kernel set-point vs true angle while following; stop: worst last-command-to-standstill; \
-         rej: frames and requests rejected, dropped or refused)"
-    );
     s
+}
+
+/// The header and `rows`, each column as wide as its widest cell (header
+/// included), two spaces apart; numbers right-aligned.
+fn table(rows: &[[String; COLUMNS.len()]]) -> String {
+    let width: [usize; COLUMNS.len()] = core::array::from_fn(|c| {
+        rows.iter().map(|r| r[c].chars().count()).chain([COLUMNS[c].0.len()]).max().unwrap_or(0)
+    });
+    let line = |cells: [&str; COLUMNS.len()]| {
+        let mut l = String::new();
+        for (c, cell) in cells.iter().enumerate() {
+            let w = width[c];
+            let _ = if c + 1 == COLUMNS.len() {
+                write!(l, "{cell}")
+            } else if COLUMNS[c].1 {
+                write!(l, "{cell:>w$}  ")
+            } else {
+                write!(l, "{cell:<w$}  ")
+            };
+        }
+        l.trim_end().to_string()
+    };
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", line(COLUMNS.map(|c| c.0)));
+    for r in rows {
+        let _ = writeln!(s, "{}", line(core::array::from_fn(|c| r[c].as_str())));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{table, COLUMNS};
+
+    /// Where each column of `line` starts (the character after each run of
+    /// two or more spaces).
+    fn starts(line: &str) -> Vec<usize> {
+        let b: Vec<char> = line.chars().collect();
+        let mut v = vec![0];
+        for i in 2..b.len() {
+            if b[i] != ' ' && b[i - 1] == ' ' && b[i - 2] == ' ' {
+                v.push(i);
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn table_columns_line_up_whatever_the_cell_lengths() {
+        let row = |name: &str, faults: &str| -> [String; COLUMNS.len()] {
+            core::array::from_fn(|c| match c {
+                0 => name.to_string(),
+                8 => faults.to_string(),
+                1 | 2 => "12.3".to_string(),
+                _ => "x".repeat(c),
+            })
+        };
+        let rows = [
+            row("short", "-"),
+            row("a-scenario-name-longer-than-any-column-width-so-far", "homing travel J1 in FastSeek; runaway J2"),
+            row("mid-length-name", "-"),
+        ];
+        let t = table(&rows);
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), 4);
+        // Every right-aligned column ends where its header ends, every
+        // left-aligned one starts where its header starts: with no cell
+        // containing two spaces, the column starts of the left-aligned
+        // columns after the name agree on every line.
+        let header = starts(lines[0]);
+        assert_eq!(header.len(), COLUMNS.len(), "{}", lines[0]);
+        for l in &lines[1..] {
+            let st = starts(l);
+            // scenario, safety, faults, expectations are left-aligned
+            for c in [0, 7, 8] {
+                assert!(st.contains(&header[c]), "column {c} misplaced in\n{}\n{l}", lines[0]);
+            }
+            assert!(l.ends_with(&"x".repeat(9)), "{l}");
+        }
+    }
 }
