@@ -5,7 +5,8 @@
 #   ci/kani.sh list               harness names (every `#[kani::proof]` fn in proofs/src/*.rs)
 #   ci/kani.sh run NAME...        cargo kani on each named harness, one at a time,
 #                                 each under a wall-clock limit of $KANI_HARNESS_TIMEOUT
-#                                 (default 30m); fails if any harness fails or times out
+#                                 (default 30m); fails if any harness fails or times out,
+#                                 or leaves a kani::cover! UNSATISFIABLE or UNREACHABLE
 #   ci/kani.sh inventory [DIR]    `cargo kani list` output (the proof inventory) into DIR
 #                                 (default kani-inventory/), plus this script's own list
 #
@@ -24,6 +25,28 @@ list() {
     ' proofs/src/*.rs | sort
 }
 
+# Non-vacuity: a cover Kani reports UNSATISFIABLE or UNREACHABLE must fail
+# the harness (a harness whose assumptions exclude what it claims to reach
+# proves nothing). Kani does that with `--fail-uncoverable`, an unstable
+# option: passed with `-Z unstable-options` (or, in releases that spell it
+# so, `--enable-unstable`), whichever this cargo-kani parses. Independently
+# of the option, `run` fails a harness whose summary counts fewer satisfied
+# covers than covers.
+uncoverable_flags() {
+    if cargo kani -Z unstable-options --fail-uncoverable --help >/dev/null 2>&1; then
+        echo "-Z unstable-options --fail-uncoverable"
+    elif cargo kani --enable-unstable --fail-uncoverable --help >/dev/null 2>&1; then
+        echo "--enable-unstable --fail-uncoverable"
+    fi
+}
+
+# The first "** N of M cover properties satisfied" line of a Kani log with
+# N < M, if any.
+uncovered() {
+    grep -E '\*\* [0-9]+ of [0-9]+ cover propert(y|ies) satisfied' "$1" |
+        awk '{ if ($2 != $4) { print; exit } }' || true
+}
+
 case "${1:-}" in
 list)
     list
@@ -34,6 +57,10 @@ run)
     known="$(list)"
     timeout_s="${KANI_HARNESS_TIMEOUT:-30m}"
     failed=()
+    # shellcheck disable=SC2207 # the flags are words without spaces
+    flags=($(uncoverable_flags))
+    echo "non-vacuity: ${flags[*]:-no --fail-uncoverable in this cargo-kani; the cover summary is checked}"
+    log=$(mktemp)
     for h in "$@"; do
         if ! grep -qx -- "$h" <<<"$known"; then
             echo "ci/kani.sh: no #[kani::proof] fn named $h in proofs/src" >&2
@@ -42,8 +69,13 @@ run)
         fi
         echo "::group::cargo kani --harness $h (limit $timeout_s)"
         start=$(date +%s)
-        if timeout --signal=TERM --kill-after=60 "$timeout_s" cargo kani -p proofs --harness "$h" --exact; then
+        if timeout --signal=TERM --kill-after=60 "$timeout_s" cargo kani -p proofs "${flags[@]}" --harness "$h" --exact |
+            tee "$log"; then
             status=ok
+            if [ -n "$(uncovered "$log")" ]; then
+                status="FAILED (a cover not satisfied: $(uncovered "$log"))"
+                failed+=("$h: $status")
+            fi
         else
             rc=$?
             if [ "$rc" -eq 124 ]; then status="TIMEOUT after $timeout_s"; else status="FAILED (exit $rc)"; fi

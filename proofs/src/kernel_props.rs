@@ -48,6 +48,7 @@ fn all_zero<S: Scalar>(o: &TickOutput<S>) -> bool {
 
 /// SR-2, SR-3, SR-4, SR-9, SR-11, SR-21: one tick from Operational with any
 /// target and any sensors: outputs bounded; a fault zeroes every axis.
+#[cfg_attr(not(kani), kani::loops)]
 fn operational_tick<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let req = if kani::any() { Some(Request::Motion(any_target::<S>())) } else { None };
@@ -232,6 +233,7 @@ fn soft_stop_ramps_monotonically_to_zero_and_latches_fx() {
 /// SR-5, SR-6: a limit fault; enable with any sensors is refused while any
 /// cause is present, and when accepted the set-points equal the measured
 /// positions (no jump) and the timeout is disarmed.
+#[cfg_attr(not(kani), kani::loops)]
 fn enable<S: Sym>() {
     let (mut k, auth) = operational::<S>();
     let switch: u8 = kani::any::<u8>() % AXES as u8;
@@ -301,6 +303,7 @@ fn encoder_loss_beyond_the_tolerance_faults_fx() {
 
 /// SR-14: homing can be repeated: a second `<HOME>` from Operational runs
 /// and completes again.
+#[cfg_attr(not(kani), kani::loops)]
 fn rehome<S: Sym>() {
     let (mut k, _) = operational::<S>();
     let o = k.tick(&still(0), Some(Request::Home));

@@ -1,6 +1,8 @@
 //! The shim's own checks (not harnesses): it must fail a harness whose
 //! loop exceeds its declared `#[kani::unwind(N)]`, as Kani's unwinding
-//! assertion does, and pass one whose loops fit.
+//! assertion does, and pass one whose loops fit; and it must fail a harness
+//! with a cover never satisfied, also one whose line never runs, as Kani's
+//! `--fail-uncoverable` fails an UNSATISFIABLE or UNREACHABLE cover.
 
 use kani::runner::{check, needs_unwind};
 
@@ -60,6 +62,60 @@ fn a_declared_loop_of_the_code_under_test_beyond_the_unwind_fails() {
     assert_eq!(check("needs_seven", needs_seven, Some(7)).map(|r| r.needed_unwind), Ok(7));
 }
 
+/// A cover in a branch no case enters (its line never runs).
+#[kani::loops]
+fn cover_in_a_dead_branch() {
+    let b: bool = kani::any();
+    kani::assume(!b);
+    if b {
+        kani::cover!(true, "the dead branch");
+    }
+}
+
+/// A cover whose line runs but whose condition never holds.
+#[kani::loops]
+fn unsatisfiable_cover() {
+    let x: u8 = kani::any();
+    kani::cover!(x.wrapping_mul(2) == 1, "impossible"); // 2x is even modulo 256
+}
+
+/// A cover written in a function the macros do not instrument: unknown to
+/// the shim until reached.
+fn undeclared_cover() {
+    kani::cover!(true, "in an uninstrumented function");
+}
+
+fn calls_undeclared() {
+    undeclared_cover();
+}
+
+/// A helper whose cover is satisfied only in some cases.
+#[kani::loops]
+fn helper_with_a_branch_cover(x: u8) {
+    if x == 7 {
+        kani::cover!(true, "x is 7");
+    }
+}
+
+fn calls_the_helper() {
+    helper_with_a_branch_cover(kani::any());
+}
+
+#[test]
+fn a_cover_never_satisfied_fails_the_harness_even_when_its_line_never_runs() {
+    let e = check("cover_in_a_dead_branch", cover_in_a_dead_branch, None).expect_err("an unreachable cover");
+    assert!(e.contains("cover never satisfied") && e.contains("the dead branch"), "{e}");
+    let e = check("unsatisfiable_cover", unsatisfiable_cover, None).expect_err("an unsatisfiable cover");
+    assert!(e.contains("cover never satisfied") && e.contains("impossible"), "{e}");
+    let e = check("calls_undeclared", calls_undeclared, None).expect_err("an undeclared cover");
+    assert!(e.contains("was not declared before it was reached"), "{e}");
+    // A helper's cover declared at its entry, satisfied by one of the 256
+    // exhaustively enumerated cases.
+    let r = check("calls_the_helper", calls_the_helper, None).expect("x == 7 is reachable");
+    assert_eq!((r.kind, r.covers), ("exhaustive", (1, 1)));
+    assert_eq!(check("symbolic_length", symbolic_length, Some(6)).map(|r| r.covers), Ok((1, 1)));
+}
+
 /// The harnesses of this crate declare bounds that fit: each one's test runs
 /// under the shim with its declared `#[kani::unwind]` (a harness that
 /// exceeded it would fail there). This checks the declarations themselves:
@@ -67,13 +123,25 @@ fn a_declared_loop_of_the_code_under_test_beyond_the_unwind_fails() {
 /// and every `#[kani::unwind]` has a justification comment.
 #[test]
 fn every_unwind_is_justified() {
-    for f in ["kernel_props.rs", "numeric.rs", "wire.rs"] {
-        let text = std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src").join(f))
-            .expect("harness source");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .expect("harness sources")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+        .collect();
+    files.sort();
+    let mut harness_files = 0;
+    for path in &files {
+        let f = path.file_name().and_then(|n| n.to_str()).unwrap_or("?");
+        let text = std::fs::read_to_string(path).expect("harness source");
+        harness_files += usize::from(text.contains("#[kani::proof]"));
         for (n, line) in text.lines().enumerate() {
             if line.trim_start().starts_with("#[kani::unwind(") {
                 assert!(line.contains("//"), "{f}:{}: #[kani::unwind] without a justification comment", n + 1);
             }
         }
     }
+    // Every file with harnesses was read (kernel_props, motion_props,
+    // numeric, state_props, wire).
+    assert!(harness_files >= 5, "only {harness_files} harness files in {}", dir.display());
 }

@@ -220,10 +220,25 @@ fn any_request<S: Sym>(auth: &Authority) -> Option<Request<S>> {
     }
 }
 
+/// Antecedents of one tick that only some draws can reach (only a latched
+/// draw starts latched, only an operational one stays Operational, only a
+/// stopping one runs a ramp): each harness covers those of its own draw.
+#[derive(Clone, Copy, Debug)]
+struct Reached {
+    /// A latch and no enable (SR-5's antecedent).
+    latch_kept: bool,
+    /// An enable that cleared a latch.
+    latch_cleared: bool,
+    /// An operational tick that changed an output (SR-25's antecedent).
+    output_changed: bool,
+    /// The soft-stop ramp's last tick (SR-7's antecedent).
+    ramp_end: bool,
+}
+
 /// One tick from any admitted state of the kind `draw`; asserts what every
-/// tick guarantees, and returns what the caller needs for its own claims.
+/// tick guarantees, and returns the draw-specific antecedents it reached.
 #[cfg_attr(not(kani), kani::loops)]
-fn step<S: Sym>(draw: Draw) {
+fn step<S: Sym>(draw: Draw) -> Reached {
     let (mut k, auth, spec) = any_state::<S>(draw);
     let before = k.state();
     let prev = k.last_output();
@@ -269,22 +284,22 @@ fn step<S: Sym>(draw: Draw) {
     }
     // SR-5: only an accepted `<ENABLE>` leaves a latch (a new cause may turn
     // SoftEstop into Fault).
-    if matches!(before, State::SoftEstop | State::Fault) && !enable {
-        kani::cover!(true, "a latch and no enable (SR-5 antecedent)");
+    let latched = matches!(before, State::SoftEstop | State::Fault);
+    let mut reached = Reached {
+        latch_kept: latched && !enable,
+        latch_cleared: latched && enable && !matches!(after, State::SoftEstop | State::Fault),
+        output_changed: false,
+        ramp_end: false,
+    };
+    if latched && !enable {
         assert!(after == before || after == State::Fault);
     }
-    if draw == Draw::Latched {
-        kani::cover!(
-            matches!(before, State::SoftEstop | State::Fault)
-                && enable
-                && !matches!(after, State::SoftEstop | State::Fault),
-            "an enable clears a latch"
-        );
-    }
+    // (A latch only in the latched draw.)
+    assert!(!latched || draw == Draw::Latched);
     // SR-25: Operational to Operational, each output within one
     // acceleration step of the last (exactly the clamp the code applies).
     if before == State::Operational && after == State::Operational {
-        kani::cover!(out != prev, "an operational tick that changes an output");
+        reached.output_changed = out != prev;
         for i in 0..AXES {
             let a = S::from_f32(PAROL6.joints[i].max_acceleration / PAROL6.tick_hz as f32);
             assert!(out[i] >= prev[i].minus(a) && out[i] <= prev[i].plus(a));
@@ -298,8 +313,8 @@ fn step<S: Sym>(draw: Draw) {
             for i in 0..AXES {
                 assert!(out[i].clamp_between(S::ZERO, prev[i]) == out[i]);
             }
-            kani::cover!(ramp_k + 1 >= stop_ticks(), "the ramp's last tick");
-            if ramp_k + 1 >= stop_ticks() {
+            reached.ramp_end = ramp_k + 1 >= stop_ticks();
+            if reached.ramp_end {
                 assert!(out.iter().all(|v| *v == S::ZERO));
                 assert!(after == State::SoftEstop);
             }
@@ -307,6 +322,7 @@ fn step<S: Sym>(draw: Draw) {
     }
     // The invariant holds again (the inductive step).
     assert!(k.invariant());
+    reached
 }
 
 /// The induction's base: the state `Kernel::new` builds satisfies the
@@ -322,30 +338,38 @@ fn initial_state_satisfies_the_invariant() {
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_operational_state_f32() {
-    step::<f32>(Draw::Operational);
+    let r = step::<f32>(Draw::Operational);
+    kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_operational_state_fx() {
-    step::<kernel::Fx>(Draw::Operational);
+    let r = step::<kernel::Fx>(Draw::Operational);
+    kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_stopping_state_f32() {
-    step::<f32>(Draw::Stopping);
+    let r = step::<f32>(Draw::Stopping);
+    kani::cover!(r.ramp_end, "the ramp's last tick");
 }
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_stopping_state_fx() {
-    step::<kernel::Fx>(Draw::Stopping);
+    let r = step::<kernel::Fx>(Draw::Stopping);
+    kani::cover!(r.ramp_end, "the ramp's last tick");
 }
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_latched_or_unhomed_state_f32() {
-    step::<f32>(Draw::Latched);
+    let r = step::<f32>(Draw::Latched);
+    kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
+    kani::cover!(r.latch_cleared, "an enable clears a latch");
 }
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_latched_or_unhomed_state_fx() {
-    step::<kernel::Fx>(Draw::Latched);
+    let r = step::<kernel::Fx>(Draw::Latched);
+    kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
+    kani::cover!(r.latch_cleared, "an enable clears a latch");
 }

@@ -36,6 +36,7 @@ fn any_line() -> ([u8; LEN], usize) {
 
 /// SR-23, SR-24: parsing any bytes never panics, and every accepted motion
 /// frame is finite and inside the joint limits (the kernel's own check).
+#[cfg_attr(not(kani), kani::loops)]
 fn parser<S: Scalar>() {
     #[cfg(not(kani))]
     kani::runner::needs_unwind(LEN as u32 + 1, "the parser's loops over the line's bytes");

@@ -133,18 +133,99 @@ fn declared_unwind(tokens: &[TokenTree]) -> Result<Option<u32>, &'static str> {
     Ok(None)
 }
 
-/// Instruments the body (the last brace group) of a function item.
+/// Instruments the body (the last brace group) of a function item: its
+/// loops count their iterations, and its first statement declares every
+/// `kani::cover!` written in it.
 fn instrument_fn_body(mut tokens: Vec<TokenTree>) -> TokenStream {
     if let Some(pos) =
         tokens.iter().rposition(|t| matches!(t, TokenTree::Group(g) if g.delimiter() == Delimiter::Brace))
     {
         if let TokenTree::Group(g) = &tokens[pos] {
-            let mut ng = Group::new(Delimiter::Brace, instrument(g.stream()));
+            let mut covers = Vec::new();
+            collect_covers(g.stream(), &mut covers);
+            let mut body: Vec<TokenTree> = declare_covers(&covers).into_iter().collect();
+            body.extend(instrument(g.stream()));
+            let mut ng = Group::new(Delimiter::Brace, body.into_iter().collect());
             ng.set_span(g.span());
             tokens[pos] = TokenTree::Group(ng);
         }
     }
     tokens.into_iter().collect()
+}
+
+/// Every `kani::cover!(...)` in `ts` (nested groups and closures included):
+/// the line of its `kani` token (the line `line!()` gives inside the
+/// `cover!` expansion) and its label: the message literal, else the
+/// condition's text (as the `cover!` macro labels it).
+fn collect_covers(ts: TokenStream, out: &mut Vec<(u32, TokenStream)>) {
+    let toks: Vec<TokenTree> = ts.into_iter().collect();
+    for (i, t) in toks.iter().enumerate() {
+        if let TokenTree::Group(g) = t {
+            collect_covers(g.stream(), out);
+            continue;
+        }
+        let TokenTree::Ident(k) = t else { continue };
+        let is_cover = k.to_string() == "kani"
+            && is_punct(toks.get(i + 1), ':')
+            && is_punct(toks.get(i + 2), ':')
+            && matches!(toks.get(i + 3), Some(TokenTree::Ident(c)) if c.to_string() == "cover")
+            && is_punct(toks.get(i + 4), '!');
+        if !is_cover {
+            continue;
+        }
+        let Some(TokenTree::Group(args)) = toks.get(i + 5) else { continue };
+        let parts = split_commas(args.stream());
+        let label = match parts.as_slice() {
+            [] => "\"\"".parse().unwrap_or_default(),
+            [_, msg, ..] if matches!(msg.as_slice(), [TokenTree::Literal(_)]) => msg.iter().cloned().collect(),
+            [cond, ..] => {
+                let mut s: TokenStream = "stringify!".parse().unwrap_or_default();
+                s.extend([TokenTree::Group(Group::new(Delimiter::Parenthesis, cond.iter().cloned().collect()))]);
+                s
+            }
+        };
+        out.push((k.span().line() as u32, label));
+    }
+}
+
+/// The top-level comma-separated parts of a macro's arguments (a trailing
+/// comma gives no empty part).
+fn split_commas(ts: TokenStream) -> Vec<Vec<TokenTree>> {
+    let mut parts = vec![Vec::new()];
+    for t in ts {
+        if matches!(&t, TokenTree::Punct(p) if p.as_char() == ',') {
+            parts.push(Vec::new());
+        } else if let Some(last) = parts.last_mut() {
+            last.push(t);
+        }
+    }
+    parts.retain(|p| !p.is_empty());
+    parts
+}
+
+/// `::kani::runner::declare_covers(file!(), &[(LINE, LABEL), ...]);`, or
+/// nothing for a body without covers.
+fn declare_covers(covers: &[(u32, TokenStream)]) -> TokenStream {
+    if covers.is_empty() {
+        return TokenStream::new();
+    }
+    let mut list: Vec<TokenTree> = Vec::new();
+    for (line, label) in covers {
+        let mut pair: Vec<TokenTree> = vec![TokenTree::Literal(Literal::u32_suffixed(*line))];
+        pair.push(TokenTree::Punct(Punct::new(',', Spacing::Alone)));
+        pair.extend(label.clone());
+        list.push(TokenTree::Group(Group::new(Delimiter::Parenthesis, pair.into_iter().collect())));
+        list.push(TokenTree::Punct(Punct::new(',', Spacing::Alone)));
+    }
+    let array = TokenTree::Group(Group::new(Delimiter::Bracket, list.into_iter().collect()));
+    let mut args: TokenStream = "file!(), &".parse().unwrap_or_default();
+    args.extend([array]);
+    let mut s: TokenStream = "::kani::runner::declare_covers".parse().unwrap_or_default();
+    s.extend([
+        TokenTree::Group(Group::new(Delimiter::Parenthesis, args)),
+        TokenTree::Punct(Punct::new(';', Spacing::Alone)),
+    ]);
+    s
 }
 
 fn is_punct(t: Option<&TokenTree>, c: char) -> bool {

@@ -14,9 +14,12 @@
 //!   floats NaN, infinities, subnormals, +-0).
 //!
 //! Each harness prints one line saying which it did, how many cases ran, how
-//! many were discarded by `kani::assume`, and whether every `kani::cover!`
-//! was reached. A cover never reached fails the harness: it means an
-//! assumption made the harness vacuous (or the samples too few).
+//! many were discarded by `kani::assume`, and how many of its `kani::cover!`
+//! were satisfied. Every cover of the harness is known before it can be
+//! reached (the macros declare the covers of each function body they
+//! instrument at its entry), and one never satisfied fails the harness,
+//! whether its line ran or not: an assumption made the harness vacuous, a
+//! branch is unreachable, or the samples were too few.
 //!
 //! Loop bounds are checked as Kani checks them: with `#[kani::unwind(N)]`
 //! every loop the shim can see (the harness's own body and helpers marked
@@ -66,22 +69,27 @@ pub fn assert(cond: bool, msg: &'static str) {
 
 /// Records whether a `cover!` condition held (used by the macro).
 #[doc(hidden)]
-pub fn cover_hit(site: &'static str, cond: bool) {
-    runner::record_cover(site, cond);
+pub fn cover_hit(file: &'static str, line: u32, label: &'static str, cond: bool) {
+    runner::record_cover(file, line, label, cond);
 }
 
 /// Kani's `kani::cover!(cond, "message")`: the harness must be able to reach
-/// a state where `cond` holds.
+/// a state where `cond` holds. Under the shim every cover is declared before
+/// it can be reached: `#[kani::proof]` and `kani::loops` declare the covers
+/// written in their function's body when it is entered (see the
+/// `kani-shim-macros` crate), and a declared cover never satisfied fails the
+/// harness, reached or not. A cover in a function without either attribute
+/// fails the harness when it is reached.
 #[macro_export]
 macro_rules! cover {
     () => {
-        $crate::cover_hit(concat!(file!(), ":", line!()), true)
+        $crate::cover_hit(file!(), line!(), "", true)
     };
     ($cond:expr $(,)?) => {
-        $crate::cover_hit(concat!(file!(), ":", line!(), " ", stringify!($cond)), $cond)
+        $crate::cover_hit(file!(), line!(), stringify!($cond), $cond)
     };
     ($cond:expr, $msg:literal $(,)?) => {
-        $crate::cover_hit(concat!(file!(), ":", line!(), " ", $msg), $cond)
+        $crate::cover_hit(file!(), line!(), $msg, $cond)
     };
 }
 

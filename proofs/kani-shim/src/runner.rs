@@ -86,9 +86,12 @@ impl Source {
     }
 }
 
+/// The running harness's covers: (file, line) -> (label, satisfied).
+type Covers = BTreeMap<(&'static str, u32), (&'static str, bool)>;
+
 thread_local! {
     static SOURCE: RefCell<Option<Source>> = const { RefCell::new(None) };
-    static COVERS: RefCell<BTreeMap<&'static str, bool>> = const { RefCell::new(BTreeMap::new()) };
+    static COVERS: RefCell<Covers> = const { RefCell::new(BTreeMap::new()) };
     /// The running harness's `#[kani::unwind(N)]` (None: not declared).
     static UNWIND: Cell<Option<u32>> = const { Cell::new(None) };
     /// Most iterations any instrumented loop ran in one entry, this harness.
@@ -156,12 +159,33 @@ pub fn with_source<T>(f: impl FnOnce(&mut Source) -> T) -> T {
     })
 }
 
-pub(crate) fn record_cover(site: &'static str, cond: bool) {
+/// Declares the covers written in a function body (the `#[kani::proof]`
+/// and `kani::loops` macros call it when the body is entered): each is then
+/// required to be satisfied by the end of the harness, reached or not.
+pub fn declare_covers(file: &'static str, covers: &[(u32, &'static str)]) {
     COVERS.with(|c| {
         let mut c = c.borrow_mut();
-        let e = c.entry(site).or_insert(false);
-        *e |= cond;
+        for (line, label) in covers {
+            c.entry((file, *line)).or_insert((label, false));
+        }
     });
+}
+
+pub(crate) fn record_cover(file: &'static str, line: u32, label: &'static str, cond: bool) {
+    let declared = COVERS.with(|c| match c.borrow_mut().get_mut(&(file, line)) {
+        Some(e) => {
+            e.1 |= cond;
+            true
+        }
+        None => false,
+    });
+    if !declared {
+        panic!(
+            "kani::cover! at {file}:{line} ({label:?}) was not declared before it was reached: write it in a \
+             #[kani::proof] body or in a helper marked #[cfg_attr(not(kani), kani::loops)], so that the shim \
+             requires it even when its line never runs"
+        );
+    }
 }
 
 fn install_hook() {
@@ -207,7 +231,7 @@ pub struct Report {
     pub cases: u64,
     /// Cases discarded by `kani::assume`.
     pub discarded: u64,
-    /// Cover sites reached / declared.
+    /// Covers satisfied / declared.
     pub covers: (usize, usize),
     /// Seed (sampled only).
     pub seed: Option<u64>,
@@ -255,8 +279,8 @@ pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, S
             .unwrap_or_else(|| "panic".into());
         format!("kani-shim: {name}: FAILED: {msg}")
     })?;
-    let covers: BTreeMap<&'static str, bool> = COVERS.with(|c| c.borrow().clone());
-    let hit = covers.values().filter(|h| **h).count();
+    let covers = COVERS.with(|c| c.borrow().clone());
+    let hit = covers.values().filter(|(_, h)| *h).count();
     let longest = LONGEST.with(Cell::get);
     let needed = NEEDED.with(Cell::get);
     let report = Report { covers: (hit, covers.len()), longest_loop: longest, needed_unwind: needed, ..report };
@@ -287,7 +311,8 @@ pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, S
             );
         }
     }
-    let missed: Vec<_> = covers.iter().filter(|(_, h)| !**h).map(|(s, _)| *s).collect();
+    let missed: Vec<String> =
+        covers.iter().filter(|(_, (_, h))| !*h).map(|((f, l), (label, _))| format!("{f}:{l} {label}")).collect();
     if !missed.is_empty() {
         return Err(format!("{line}\ncover never satisfied (vacuous assumption or too few samples): {missed:?}"));
     }
