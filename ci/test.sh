@@ -53,11 +53,32 @@ cargo build -p kernel -p protocol --target thumbv7em-none-eabihf --release --loc
 step "firmware image: .elf/.hex, sizes, tick stack, no panic path from the tick, reproducible"
 firmware/build.sh
 
+step "tick_analysis.py seeded-defect self-test (a panic path and a 64-bit division must fail, a clean root pass)"
+firmware/tools/tick_analysis_selftest.sh
+
 step "Cortex-M7 emulation (QEMU mps2-an500): host vs target traces bit for bit"
 EMU_TARGET_DIR="$ROOT/target/emu" emu/test.sh
 
 step "register-level twin (Unicorn): the Serial1 release image on i.MXRT1062 peripheral models"
 twin/test.sh
+
+step "dependencies: licences, bans and sources (cargo-deny, offline; root, twin and emu workspaces) and the image's SBOM (CycloneDX)"
+# Pinned tools (docs/safety/DEPENDENCIES.md, TOOLS.md); installed once. Duplicate
+# major versions are warnings (`cargo deny check bans` shows them); errors fail.
+CARGO_DENY_VERSION=0.20.2
+CARGO_CYCLONEDX_VERSION=0.5.9
+cargo deny --version 2>/dev/null | grep -qx "cargo-deny $CARGO_DENY_VERSION" || cargo install --locked "cargo-deny@$CARGO_DENY_VERSION"
+cargo cyclonedx --version 2>/dev/null | grep -q " $CARGO_CYCLONEDX_VERSION\$" || cargo install --locked "cargo-cyclonedx@$CARGO_CYCLONEDX_VERSION"
+# cargo-deny resolves the graph from cargo's cache: fill it (no-op when the
+# build steps already did), then decide offline from Cargo.lock alone.
+# (emu/target is a crate of the emu workspace: its builds go to target/emu.)
+cargo fetch --locked >/dev/null
+cargo fetch --locked --manifest-path twin/Cargo.toml >/dev/null
+CARGO_TARGET_DIR="$ROOT/target/emu" cargo fetch --locked --manifest-path emu/Cargo.toml >/dev/null
+cargo deny --offline --log-level error check licenses bans sources
+cargo deny --offline --log-level error --manifest-path twin/Cargo.toml --config twin/deny.toml check licenses bans sources
+CARGO_TARGET_DIR="$ROOT/target/emu" cargo deny --offline --log-level error --manifest-path emu/Cargo.toml --config deny.toml check licenses bans sources
+ci/sbom.sh
 
 if [ "${QUICK:-0}" != "1" ]; then
     step "exhaustive sweeps (every I8F24 / f32 bit pattern of the per-axis functions)"
