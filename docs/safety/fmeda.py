@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """FMEDA of the PAROL6 control channel: DC per part, DC_avg, MTTFd per
 channel, common-cause score and the performance level they support, by the
-simplified method of ISO 13849-1 (clause 4.5.4 and Annex K; MTTFd bands of
-Table 4 / 5, DC bands of Table 6, the category / DC_avg / MTTFd -> PL
-relation of Figure 5).
+simplified method of ISO 13849-1 (its MTTFd and DC bands, and the
+category / DC_avg / MTTFd -> PL relation of its bar chart, tabulated in
+Annex K).
 
 Usage: python3 docs/safety/fmeda.py [FMEDA.csv] [CCF.csv] [--category B]
 
@@ -168,7 +168,7 @@ def parse_ccf(text):
 
 
 def mttfd_band(years):
-    """ISO 13849-1 Table 5: low 3..10, medium 10..30, high 30..100 years."""
+    """ISO 13849-1 MTTFd bands: low 3..10, medium 10..30, high 30..100 years."""
     if years < 3:
         return "below 3 years (not acceptable)"
     if years < 10:
@@ -179,7 +179,7 @@ def mttfd_band(years):
 
 
 def dc_band(dc):
-    """ISO 13849-1 Table 6: none < 60 %, low 60..90, medium 90..99, high >= 99."""
+    """ISO 13849-1 DC bands: none < 60 %, low 60..90, medium 90..99, high >= 99."""
     if dc < 0.60:
         return "none"
     if dc < 0.90:
@@ -189,7 +189,7 @@ def dc_band(dc):
     return "high"
 
 
-# Figure 5 / Annex K of ISO 13849-1: (category, DC_avg band) -> PL per MTTFd band.
+# ISO 13849-1's simplified method (Annex K): (category, DC_avg band) -> PL per MTTFd band.
 PL_TABLE = {
     ("B", "none"): {"low": "a", "medium": "b"},
     ("1", "none"): {"high": "c"},
