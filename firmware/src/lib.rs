@@ -17,6 +17,7 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
+#![deny(clippy::arithmetic_side_effects)]
 
 pub mod board;
 pub mod root;
@@ -179,7 +180,9 @@ pub fn encoder_self_test(recent: &[u8; AXES]) -> u8 {
     mask
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     use hal_imxrt::pure::encoder::LossReason;

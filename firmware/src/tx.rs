@@ -280,7 +280,9 @@ impl Tx {
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     use core::fmt::Write as _;

@@ -79,7 +79,9 @@ impl EncoderChannel {
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     use crate::pure::encoder::LossReason;

@@ -67,6 +67,8 @@ pub enum ClockError {
 }
 
 /// PERCLK frequency for a configuration, Hz.
+// Cannot overflow: the divider is 1..=64 (checked first).
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn perclk_hz(cfg: PerclkConfig, ipg_hz: u32, osc_hz: u32) -> Result<u32, ClockError> {
     if cfg.divider == 0 || cfg.divider > 64 {
         return Err(ClockError::DividerOutOfRange);
@@ -81,6 +83,9 @@ pub const fn perclk_hz(cfg: PerclkConfig, ipg_hz: u32, osc_hz: u32) -> Result<u3
 /// PIT `LDVAL` for an exact `tick_hz` from `timer_hz` (the PIT counts
 /// `LDVAL + 1` clocks per period). Refuses rates that do not divide exactly, so
 /// the tick period is exactly what the control law assumes.
+// Cannot overflow: tick_hz is 1..=timer_hz (checked first), so the quotient
+// is at least 1 and the subtraction does not wrap.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn pit_load_value(timer_hz: u32, tick_hz: u32) -> Result<u32, ClockError> {
     if tick_hz == 0 || tick_hz > timer_hz {
         return Err(ClockError::RateOutOfRange);
@@ -93,6 +98,8 @@ pub const fn pit_load_value(timer_hz: u32, tick_hz: u32) -> Result<u32, ClockErr
 
 /// QuadTimer `CTRL[PCS]` value selecting "IP bus clock / `divider`"
 /// (`divider` a power of two 1..=128 -> PCS 8..=15).
+// Cannot overflow: a power of two up to 128 has at most 7 trailing zeros.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn qtimer_pcs_for_divider(divider: u32) -> Result<u16, ClockError> {
     if divider == 0 || divider > 128 || !divider.is_power_of_two() {
         return Err(ClockError::DividerOutOfRange);
@@ -107,6 +114,8 @@ pub const QTIMER_HZ: u32 = IPG_HZ / QTIMER_DIVIDER;
 
 /// CPU cycles per QuadTimer tick; must be an integer so the duty ratio can be
 /// computed exactly in integers.
+// Cannot overflow: each divisor is checked non-zero before its division.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn cpu_cycles_per_qtimer_tick(cpu_hz: u32, ipg_hz: u32, divider: u32) -> Result<u32, ClockError> {
     if divider == 0 || ipg_hz == 0 {
         return Err(ClockError::DividerOutOfRange);
@@ -125,6 +134,8 @@ pub const CYCLES_PER_QTIMER_TICK: u32 = match cpu_cycles_per_qtimer_tick(CPU_HZ,
 };
 
 /// Number of CPU cycles covering at least `ns` nanoseconds (rounded up).
+// Cannot overflow: a u32 times a u32 fits a u64; the divisor is a constant.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn ns_to_cycles_ceil(ns: u32, cpu_hz: u32) -> u32 {
     let num = ns as u64 * cpu_hz as u64;
     let c = num.div_ceil(1_000_000_000);
@@ -147,6 +158,9 @@ pub const fn dir_settle_cycles(settle_ns: u32, cpu_hz: u32) -> u32 {
 /// RTWDOG `TOVAL` for a timeout of `timeout_us` with a watchdog clock of
 /// `wdog_clk_hz` and optional 256 prescaler. `None` if it does not fit 16 bits
 /// or is zero.
+// Cannot overflow: a u32 times at most a u32 fits a u64; the divisors are
+// non-zero constants.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn rtwdog_toval(timeout_us: u32, wdog_clk_hz: u32, prescale_256: bool) -> Option<u16> {
     let clk = if prescale_256 { wdog_clk_hz as u64 / 256 } else { wdog_clk_hz as u64 };
     let t = timeout_us as u64 * clk / 1_000_000;
@@ -165,7 +179,9 @@ pub const RTWDOG_LPO_HZ: u32 = 32_000;
 /// 20 ms: 20 missed ticks, well inside the 200 ms stop requirement.
 pub const WATCHDOG_TIMEOUT_US: u32 = 20_000;
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
 

@@ -57,7 +57,9 @@ impl Debounce {
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
 

@@ -111,6 +111,8 @@ pub struct DecodeConfig {
 
 impl DecodeConfig {
     /// True if the window limits are consistent with a 16-bit counter.
+    // Cannot overflow: 65 536 times a u32 fits a u64.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn is_valid(&self) -> bool {
         self.cycles_per_tick > 0
             && self.min_window_cycles > 0
@@ -126,6 +128,10 @@ impl DecodeConfig {
 /// The tick runs [`super::frame::decode_frame`], this function with
 /// [`super::frame::FRAME_DECODE`] on 32-bit arithmetic (equal for every
 /// input: `proofs/exhaustive`, `hal-imxrt/tests/frame_reference.rs`).
+// Cannot overflow: the divisor cfg.cycles_per_tick is checked non-zero, the
+// bounds of the u64 numerator and of E are stated where they are used, and
+// high_clocks - 16 only runs when high_clocks > 16.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeConfig) -> EncoderReading {
     if cfg.cycles_per_tick == 0 || elapsed_cycles < cfg.min_window_cycles {
         return EncoderReading::Lost(LossReason::WindowTooShort);
@@ -135,22 +141,23 @@ pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeCon
     }
     let window_ticks = elapsed_cycles / cfg.cycles_per_tick;
     // At most one tick of read skew plus one per gated edge.
-    if high_ticks > window_ticks + cfg.edge_margin_ticks {
+    if high_ticks > window_ticks.saturating_add(cfg.edge_margin_ticks) {
         return EncoderReading::Lost(LossReason::Implausible);
     }
     if high_ticks <= cfg.edge_margin_ticks {
         return EncoderReading::Lost(LossReason::NoSignal);
     }
-    if high_ticks + cfg.edge_margin_ticks >= window_ticks {
+    if high_ticks.saturating_add(cfg.edge_margin_ticks) >= window_ticks {
         return EncoderReading::Lost(LossReason::StuckHigh);
     }
     // high clocks per frame in 1/16 clock: 4119*16 * H * cpt / E, rounded.
-    // Max numerator: 4119*16*65536*cpt(<=2^16) < 2^49: no u64 overflow.
+    // Past the checks H < window_ticks = E / cpt, so H * cpt < E < 2^32 and
+    // the numerator is below 4119 * 16 * 2^32 < 2^49; E >= 1.
     let num = FRAME_CLOCKS as u64 * 16 * high_ticks as u64 * cfg.cycles_per_tick as u64;
     let den = elapsed_cycles as u64;
     let high_x16 = (num + den / 2) / den;
     let lo = ((START_CLOCKS.saturating_sub(cfg.range_tolerance_clocks)) as u64) * 16;
-    let hi = ((START_CLOCKS + MAX_COUNT as u32 + cfg.range_tolerance_clocks) as u64) * 16;
+    let hi = (START_CLOCKS as u64 + MAX_COUNT as u64 + cfg.range_tolerance_clocks as u64) * 16;
     if high_x16 < lo || high_x16 > hi {
         return EncoderReading::Lost(LossReason::DutyOutOfRange);
     }
@@ -167,6 +174,9 @@ pub const fn decode_window(high_ticks: u32, elapsed_cycles: u32, cfg: &DecodeCon
 }
 
 /// Circular distance between two counts on the 4096-count circle (0..=2048).
+// Cannot overflow: the difference of two u16 values fits an i32, and
+// 0 <= d < REV, so REV - d and d fit a u16.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn circular_distance(a: u16, b: u16) -> u16 {
     const REV: i32 = COUNTS_PER_REV as i32;
     // 0 <= d < REV: the results fit a u16
@@ -296,7 +306,9 @@ impl Tracker {
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     use crate::pure::clock::CYCLES_PER_QTIMER_TICK;

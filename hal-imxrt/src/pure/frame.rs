@@ -157,6 +157,9 @@ const _: () = assert!(FRAME_DECODE.is_valid());
 /// with `A = q E + r` (`r < E`):
 /// `(512 A + E / 2) / E = 512 q + (512 r + E / 2) / E`, where
 /// `512 r + E / 2 < 512 E + E / 2 < 2^32` (const assertion below).
+// Cannot overflow: every bound is stated above and at each step (e is in
+// MIN..=MAX_PERIOD_CYCLES, non-zero and below 2^20; h < 2^16).
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn decode_frame(high_ticks: u16, period_cycles: u32) -> EncoderReading {
     const CPT: u32 = FRAME_DECODE.cycles_per_tick;
     const MARGIN: u32 = FRAME_DECODE.edge_margin_ticks;
@@ -219,6 +222,9 @@ const _: () = assert!((MAX_PERIOD_CYCLES as u64) * 16 * 32 + MAX_PERIOD_CYCLES a
 /// `q + 1 <= 2^31` for `d >= 2`, and for `d = 1` `r = 0` never rounds up.
 /// `(0, 0)` for `d = 0` (the `u64` code divides by zero; the decoder never
 /// does: its period is at least `NOMINAL_PERIOD_CYCLES / 2`).
+// Cannot overflow: d > 0 at the division; q + 1 <= 2^31 and r < d (see the
+// doc comment).
+#[allow(clippy::arithmetic_side_effects)]
 const fn div_round_dist(n: u32, d: u32) -> (u32, u32) {
     if d == 0 {
         return (0, 0);
@@ -237,6 +243,8 @@ const fn div_round_dist(n: u32, d: u32) -> (u32, u32) {
 /// and for `d < 0`, `d = -q p - r = -(q + 1) p + (p - r)` when `r > 0`. The
 /// floor quotient fits an `i32` (`-2^31` only for `d = -2^31`, `p = 1`).
 /// `(0, 0)` for `p = 0` (never called with it).
+// Cannot overflow: p > 0 at the division; r < p (see the doc comment).
+#[allow(clippy::arithmetic_side_effects)]
 const fn floor_div_rem(d: i32, p: u32) -> (i32, u32) {
     if p == 0 {
         return (0, 0);
@@ -374,6 +382,9 @@ impl FrameDecoder {
     /// `m <= r <= p - m` is `r >= m && r + m <= p`, and the floor quotients
     /// and remainders come from [`floor_div_rem`] (32-bit); their `i64`
     /// difference cast to `u32` is their wrapping `i32` difference.
+    // Cannot overflow: 2 000 times a u32 and the sum of two u32 values fit a
+    // u64.
+    #[allow(clippy::arithmetic_side_effects)]
     fn predicted_edges(&self, t0: u32, t1: u32) -> Option<u32> {
         let ph = self.phase?;
         if !self.measured || self.period == 0 {
@@ -422,6 +433,8 @@ impl FrameDecoder {
     /// reference's tolerance `1000 |span - frames p| / p > 200` is
     /// `1000 |span - frames p| >= 201 p` (`p > 0`), a multiplication. The
     /// resulting state equals the reference's (`hal-imxrt/tests/reference/`).
+    // Cannot overflow: 1 000 and 201 times a u32 fit a u64.
+    #[allow(clippy::arithmetic_side_effects)]
     fn timestamp(&mut self, edge: u32, t: u32) {
         self.phase = Some(t);
         let quiet = core::mem::take(&mut self.quiet_since_anchor);
@@ -475,6 +488,9 @@ impl FrameDecoder {
 
     /// Process one snapshot; returns the reading for this tick (the count of
     /// the most recent complete frame, or why there is none).
+    // Cannot overflow: a u16 difference times CYCLES_PER_QTIMER_TICK (32) is
+    // below 2^21.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn update(&mut self, s: Snapshot) -> EncoderReading {
         let prev_t = self.last_t.replace(s.cycles);
         let mut fresh = false;
@@ -574,10 +590,13 @@ use crate as hal;
 /// The `u64` / `i64` reference decoder, shared with
 /// `hal-imxrt/tests/frame_reference.rs`.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)] // test code (see `tests`)
 #[path = "../../tests/reference/mod.rs"]
 mod reference;
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     extern crate std;
     use super::*;

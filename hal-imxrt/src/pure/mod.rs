@@ -1,6 +1,8 @@
 //! Everything that can be computed without touching a register. No
 //! dependencies, no floats, no panics outside `const` evaluation and tests.
 
+#![deny(clippy::arithmetic_side_effects)]
+
 pub mod channel;
 pub mod clock;
 pub mod debounce;

@@ -203,6 +203,9 @@ const fn pwm(module: u8, submodule: u8, output: PwmOutput, alt: u8) -> Option<Fl
 /// XBARA1 input of FlexPWM`module` submodule `submodule`'s
 /// `PWM_OUT_TRIG0_1` (FlexPWM1..3: inputs 40..=51, four per module; NXP SDK
 /// `fsl_xbara` input table of the RT1062; FlexPWM4 not listed here).
+// Cannot overflow: module is 1..=3 and submodule 0..=3 (checked first), so
+// the result is at most 51.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn xbar_trig_input(module: u8, submodule: u8) -> Option<u8> {
     if module >= 1 && module <= 3 && submodule <= 3 {
         Some(40 + 4 * (module - 1) + submodule)
@@ -445,7 +448,9 @@ pub const J6_PIN36_PIN_MAP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 36], ..DEFAU
 
 const _: () = assert!(check(&DEFAULT_PIN_MAP).is_ok());
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
 

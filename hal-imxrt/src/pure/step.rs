@@ -82,6 +82,8 @@ impl StepConfig {
 
     /// Lowest rate the hardware can generate (prescaler 128, period 65535),
     /// milli-steps/s, rounded up.
+    // Cannot overflow: 1 000 times a u32 fits a u64; the divisor is a constant.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn hardware_min_rate_mhz(&self) -> u32 {
         let den = 128u64 * 65_535;
         ((self.timer_hz as u64 * 1000).div_ceil(den)) as u32
@@ -89,6 +91,9 @@ impl StepConfig {
 
     /// Highest rate that keeps the pulse and low times at prescaler 1,
     /// milli-steps/s.
+    // Cannot overflow: the sum of two u32 values and 1 000 times a u32 fit a
+    // u64; period is checked non-zero.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn hardware_max_rate_mhz(&self) -> u32 {
         let pulse = counts_ceil(self.pulse_ns, self.timer_hz) as u64;
         let low = counts_ceil(self.min_low_ns, self.timer_hz) as u64;
@@ -117,6 +122,9 @@ impl StepConfig {
 
     /// Longest period (timer-clock counts times the prescaler divisor) a
     /// stopped output may start with: the period of `start_rate_mhz`.
+    // Cannot overflow: 1 000 times a u32 fits a u64; start_rate_mhz is checked
+    // non-zero.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn start_max_ticks(&self) -> u64 {
         if self.start_rate_mhz == 0 {
             return u64::MAX;
@@ -127,6 +135,8 @@ impl StepConfig {
 
 const _: () = assert!(StepConfig::DEFAULT.is_valid());
 
+// Cannot overflow: a u32 times a u32 fits a u64; the divisor is a constant.
+#[allow(clippy::arithmetic_side_effects)]
 const fn counts_ceil(ns: u32, hz: u32) -> u32 {
     let c = (ns as u64 * hz as u64).div_ceil(1_000_000_000);
     if c > u16::MAX as u64 {
@@ -190,6 +200,9 @@ impl StepPlan {
 
     /// `None` if `cfg` is not valid ([`StepConfig::is_valid`]) or its
     /// maximum rate is not below [`PLAN_MAX_RATE_MHZ`].
+    // Cannot overflow: clk_x1000 < 2^42; lo <= mid < hi <= PLAN_MAX_RATE_MHZ in
+    // the binary search; p < 8.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn new(cfg: &StepConfig) -> Option<StepPlan> {
         if !cfg.is_valid() || cfg.max_rate_mhz >= PLAN_MAX_RATE_MHZ {
             return None;
@@ -225,6 +238,9 @@ impl StepPlan {
     /// [`reference_step_command`]'s result (checked for every rate by
     /// `proofs/exhaustive`), with the prescaler chosen by comparisons and
     /// the period divided on the 32-bit divider.
+    // Cannot overflow: p and k count to at most 8; clk_x1000 < 2^42 and
+    // den < 2^28 (stated at den).
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn command(&self, rate_mhz: i32) -> Result<StepCommand, StepRateError> {
         let mag = rate_mhz.unsigned_abs();
         if mag < self.min_rate_mhz {
@@ -264,6 +280,9 @@ impl StepPlan {
 
 /// `clk + den / 2 < den * 65536`: the rounded period `(clk + den/2) / den`
 /// is at most 65535.
+// Cannot overflow for a StepPlan's arguments: clk < 2^42 and den is a rate
+// up to PLAN_MAX_RATE_MHZ (2^28) times at most 2^7, so den << 16 <= 2^51.
+#[allow(clippy::arithmetic_side_effects)]
 const fn period_fits(clk: u64, den: u64) -> bool {
     clk + den / 2 < den << 16
 }
@@ -275,6 +294,10 @@ const fn period_fits(clk: u64, den: u64) -> bool {
 /// for a [`StepPlan`]'s arguments). Written by hand: no crate offers a
 /// 64-by-32 division on ARMv7-M, and compiler-builtins' `__aeabi_uldivmod`
 /// is a 64-by-64 loop.
+// Cannot overflow: k counts down from 4 to 0; t = r << 4 | nibble with
+// r < d < 2^28 fits a u32, qd * d <= t, and q gains four bits per step up
+// to 16 (see the doc comment).
+#[allow(clippy::arithmetic_side_effects)]
 const fn div_u16(n: u64, d: u64) -> Option<u16> {
     if d == 0 || d >= 1 << 28 || (n >> 16) >= d {
         return None;
@@ -298,6 +321,9 @@ const fn div_u16(n: u64, d: u64) -> Option<u16> {
 
 /// The straightforward conversion (a 64-bit division per prescaler tried):
 /// the reference [`StepPlan::command`] is checked against.
+// Cannot overflow: mag < 2^31 times 2^p (p <= 7) and 1 000 times a u32 fit
+// a u64; p counts to 8.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn reference_step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<StepCommand, StepRateError> {
     if !cfg.is_valid() {
         return Err(StepRateError::BadConfig);
@@ -337,6 +363,10 @@ pub const fn reference_step_command(rate_mhz: i32, cfg: &StepConfig) -> Result<S
 }
 
 /// Rate (milli-steps/s, signed) that a command actually produces.
+// Cannot overflow: a u16 period times 2^7 and 1 000 times a u32 fit a u64;
+// den is checked non-zero; the rate is below 2^42, so its negation fits an
+// i64.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn achieved_rate_mhz(cmd: &StepCommand, cfg: &StepConfig) -> i64 {
     match cmd {
         StepCommand::Stop => 0,
@@ -452,7 +482,9 @@ pub const fn plan_update(state: AxisOutput, cmd: StepCommand, cfg: &StepConfig) 
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     const CFG: StepConfig = StepConfig::DEFAULT;

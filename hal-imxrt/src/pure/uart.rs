@@ -36,6 +36,11 @@ pub enum BaudError {
 pub const MAX_BAUD_ERROR_PPM: u32 = 10_000;
 
 /// Search `(OSR, SBR)` for `baud` from `clock_hz`.
+// Cannot overflow: ratio is 4..=32 in the loop (so ratio - 1 and ratio -= 1
+// stay positive), baud and clock_hz are u32 and non-zero (checked first):
+// every product of two u32 values fits a u64, den > 0, sbr >= 1 at its
+// division, and the ppm product is below 2^33 * 10^6 < 2^63.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn lpuart_divisor(clock_hz: u32, baud: u32) -> Result<BaudDivisor, BaudError> {
     if clock_hz == 0 || baud == 0 {
         return Err(BaudError::Unreachable);
@@ -76,7 +81,9 @@ pub const fn lpuart_divisor(clock_hz: u32, baud: u32) -> Result<BaudDivisor, Bau
     }
 }
 
+// Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
 mod tests {
     use super::*;
     use crate::pure::clock::{OSC_HZ, PLL3_80M_HZ};
