@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 
 use crate::lpuart::Uart;
+use crate::lpuart::IRQ_LPUART6;
 use crate::pads::{self, wiring, Gpio};
 use crate::pit::{Pit, IRQ_PIT};
 use crate::plant::Plant;
@@ -104,6 +105,16 @@ pub struct Board {
     /// translated block after `MSR PRIMASK`/`BASEPRI`/`FAULTMASK` and
     /// `CPSIE`), where the harness takes the interrupt.
     pub irq_wait_unmask: bool,
+    /// The interrupt `irq_wait_unmask` waits for (IRQ number).
+    pub irq_wait: u32,
+    /// The core executed WFI and sleeps until an enabled interrupt is
+    /// pending (whatever PRIMASK says).
+    pub sleeping: bool,
+    /// WFI sleeps (the default); `TWIN_WFI_NOP=1` makes it a NOP, as on a
+    /// core that does not implement sleep.
+    pub wfi_sleeps: bool,
+    /// WFI instructions executed (each a sleep).
+    pub wfi_count: u64,
     /// PIT entries that waited for the mask to be lifted.
     pub irq_unmask_entries: u64,
     /// Last translated-block addresses (diagnostics).
@@ -162,6 +173,10 @@ impl Board {
             hints_patched: 0,
             it_deferred: 0,
             irq_wait_unmask: false,
+            irq_wait: IRQ_PIT,
+            sleeping: false,
+            wfi_sleeps: std::env::var_os("TWIN_WFI_NOP").is_none(),
+            wfi_count: 0,
             irq_unmask_entries: 0,
             stopped_at: None,
             trace: [0; 16],
@@ -310,7 +325,33 @@ impl Board {
     /// The PIT interrupt is pending and enabled in the NVIC.
     pub fn pit_irq(&mut self) -> bool {
         self.pit_update();
-        self.pit.requesting() && self.nvic_en[(IRQ_PIT / 32) as usize] & (1 << (IRQ_PIT % 32)) != 0
+        self.pit.requesting() && self.nvic_enabled(IRQ_PIT)
+    }
+
+    /// Interrupt `irq` is enabled in the NVIC.
+    pub fn nvic_enabled(&self, irq: u32) -> bool {
+        self.nvic_en[(irq / 32) as usize] & (1 << (irq % 32)) != 0
+    }
+
+    /// The LPUART6 interrupt is requested (a received byte with `RIE`, an
+    /// empty transmit FIFO with `TIE`) and enabled in the NVIC.
+    pub fn uart_irq(&mut self) -> bool {
+        self.sync();
+        self.uart.requesting() && self.nvic_enabled(IRQ_LPUART6)
+    }
+
+    /// When the next interrupt can become pending while the core sleeps:
+    /// the next PIT expiry, the watchdog's deadline, and LPUART6's next
+    /// byte in (with `RIE`) or transmitter step (with `TIE`).
+    pub fn next_wake_event(&self) -> u64 {
+        let mut t = self.next_event();
+        if self.uart.r[6] & (1 << 21) != 0 {
+            t = t.min(self.uart.rx_next_event(self.now).unwrap_or(u64::MAX));
+        }
+        if self.uart.r[6] & (1 << 23) != 0 {
+            t = t.min(self.uart.tx_next_event(self.now).unwrap_or(u64::MAX));
+        }
+        t
     }
 
     // ------------------------------------------------------------ RTWDOG

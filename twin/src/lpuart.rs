@@ -6,6 +6,9 @@ use std::collections::VecDeque;
 
 use crate::board::CPU_HZ;
 
+/// LPUART6 interrupt number (i.MXRT1062).
+pub const IRQ_LPUART6: u32 = 25;
+
 /// LPUART6 state.
 #[derive(Clone, Debug, Default)]
 pub struct Uart {
@@ -85,6 +88,14 @@ impl Uart {
     /// Queues host bytes onto the RX line.
     pub fn send(&mut self, bytes: &[u8]) {
         self.rx_pending.extend(bytes.iter().copied());
+    }
+
+    /// The interrupt is requested: `RIE` and a byte in the RX FIFO
+    /// (`RDRF`, `RXWATER` 0), or `TIE` and an empty TX FIFO (`TDRE`,
+    /// `TXWATER` 0).
+    pub fn requesting(&self) -> bool {
+        let ctrl = self.r[6];
+        (ctrl & (1 << 21) != 0 && !self.rx_fifo.is_empty()) || (ctrl & (1 << 23) != 0 && self.tx_fifo.is_empty())
     }
 
     /// Nothing for the image to read now (RX FIFO empty).

@@ -1,9 +1,10 @@
 //! The CPU: Unicorn (Cortex-M7, Thumb, M-class) with the memory map of the
 //! Teensy 4.1, MMIO hooks into [`Board`], the Cortex-M core peripherals the
 //! image touches (SCB, NVIC, DWT), and exception entry/return done by the
-//! harness (Unicorn has no NVIC): the PIT handler is called as a function
-//! with a sentinel return address, the interrupted context saved and
-//! restored whole.
+//! harness (Unicorn has no NVIC): the PIT and LPUART6 handlers are called
+//! as functions with a sentinel return address, the interrupted context
+//! saved and restored whole. WFI stops the core until an enabled interrupt
+//! is pending; the harness skips the time in between.
 
 use std::collections::HashMap;
 
@@ -11,6 +12,7 @@ use unicorn_engine::{Arch, ArmCpuModel, Context, Mode, Prot, RegisterARM, Unicor
 
 use crate::board::{Board, Reset};
 use crate::elf::Image;
+use crate::lpuart::IRQ_LPUART6;
 use crate::pit::IRQ_PIT;
 use crate::plant::Plant;
 
@@ -71,6 +73,10 @@ pub struct Stats {
     pub idle_skips: u64,
     /// Cycles skipped as idle.
     pub idle_cycles: u64,
+    /// Cycles the core slept.
+    pub sleep_cycles: u64,
+    /// LPUART6 handler invocations.
+    pub uart_calls: u64,
 }
 
 /// The twin: CPU + board.
@@ -83,6 +89,8 @@ pub struct Twin {
     boot_pc: u32,
     reset_ctx: Context,
     in_handler: Option<Context>,
+    /// The interrupt whose handler runs (meaningful with `in_handler`).
+    in_irq: u32,
     next_pc: Option<u64>,
     /// Harness statistics.
     pub stats: Stats,
@@ -150,7 +158,8 @@ impl Twin {
                 && b.idle_skip_allowed
                 && b.now.saturating_sub(b.last_write_at) > IDLE_CYCLES
                 && b.uart_rx_quiet();
-            let unmasked = b.irq_wait_unmask && !pit_masked(uc);
+            let irq = b.irq_wait;
+            let unmasked = b.irq_wait_unmask && !irq_masked(uc, irq);
             let b = uc.get_data_mut();
             if b.now >= b.stop_at || addr == SENTINEL || idle || unmasked {
                 // Never stop inside an IT block: restarting writes the PC,
@@ -182,7 +191,9 @@ impl Twin {
         })
         .map_err(e)?;
         uc.add_insn_invalid_hook(|uc: &mut Unicorn<'_, Board>| {
-            // YIELD, WFE, WFI, SEV are architectural hints; NOP is a valid
+            // WFI: the core sleeps; the harness resumes it after the WFI
+            // once an enabled interrupt is pending (`Twin::run_until`).
+            // YIELD, WFE, SEV are architectural hints; NOP is a valid
             // implementation on a single core without low-power modes.
             // Unicorn reports the PC after the hint inside an IT block and
             // at the hint otherwise; patch it to NOP (so it is not trapped
@@ -199,6 +210,16 @@ impl Twin {
             } else {
                 return false;
             };
+            let mut hw = [0u8; 2];
+            let wfi = uc.mem_read(at, &mut hw).is_ok() && u16::from_le_bytes(hw) == 0xBF30;
+            if wfi && uc.get_data().wfi_sleeps {
+                let _ = uc.reg_write(RegisterARM::PC, at + 2);
+                let b = uc.get_data_mut();
+                b.sleeping = true;
+                b.wfi_count += 1;
+                let _ = uc.emu_stop();
+                return true;
+            }
             let _ = uc.mem_write(at, &[0x00, 0xBF]);
             let _ = uc.ctl_remove_cache(at, at + 2);
             if let Some(r) = resume {
@@ -217,8 +238,17 @@ impl Twin {
         }
         let main_addr = image.symbols.get("main").copied().unwrap_or(u32::MAX);
         uc.get_data_mut().main_addr = main_addr;
-        let mut t =
-            Twin { uc, image, boot_sp, boot_pc, reset_ctx, in_handler: None, next_pc: None, stats: Stats::default() };
+        let mut t = Twin {
+            uc,
+            image,
+            boot_sp,
+            boot_pc,
+            reset_ctx,
+            in_handler: None,
+            in_irq: IRQ_PIT,
+            next_pc: None,
+            stats: Stats::default(),
+        };
         t.cpu_reset()?;
         Ok(t)
     }
@@ -229,6 +259,7 @@ impl Twin {
         self.uc.reg_write(RegisterARM::SP, u64::from(self.boot_sp)).map_err(e)?;
         self.next_pc = Some(u64::from(self.boot_pc & !1));
         self.in_handler = None;
+        self.board_mut().sleeping = false;
         Ok(())
     }
 
@@ -264,10 +295,15 @@ impl Twin {
                 b.srsr = 1 << 7; // WDOG3_RST_B
                 self.cpu_reset().map_err(|w| self.fault(w))?;
             }
+            if self.board().sleeping && self.sleep(t_end) {
+                continue;
+            }
             let pending = self.board_mut().pit_irq();
-            let masked = pit_masked(&self.uc);
-            if self.in_handler.is_none() && pending && !masked {
-                self.enter_pit()?;
+            let uart_pending = self.board_mut().uart_irq();
+            if self.in_handler.is_none() && pending && !pit_masked(&self.uc) {
+                self.enter_irq(IRQ_PIT)?;
+            } else if self.in_handler.is_none() && uart_pending && !irq_masked(&self.uc, IRQ_LPUART6) {
+                self.enter_irq(IRQ_LPUART6)?;
             }
             let now = self.now();
             let in_thread = self.in_handler.is_none();
@@ -283,7 +319,8 @@ impl Twin {
             // core takes it as soon as the mask is lifted); in a handler it
             // waits for the handler's return (same priority: no nesting;
             // the return to the sentinel stops the CPU).
-            b.irq_wait_unmask = pending && in_thread;
+            b.irq_wait_unmask = (pending || uart_pending) && in_thread;
+            b.irq_wait = if pending { IRQ_PIT } else { IRQ_LPUART6 };
             b.stop_at = stop.max(now + 1);
             // Idle skipping: only thread code (no handler running) after the
             // image enabled the PIT interrupt, i.e. its main loop.
@@ -297,9 +334,19 @@ impl Twin {
             }
             let r = self.uc.emu_start(pc | 1, SENTINEL, 0, 0);
             let pc = self.uc.reg_read(RegisterARM::PC).unwrap_or(0);
-            if let Some(a) = self.board_mut().stopped_at.take() {
+            let requested = self.board_mut().stopped_at.take();
+            if let Some(a) = requested {
                 if u64::from(a) != pc && pc != SENTINEL {
                     self.stats.stop_mismatch += 1;
+                }
+            } else if pc >= 2 && self.board().wfi_sleeps && !self.board().sleeping {
+                // Unicorn ends the run itself after a WFI (the core halts),
+                // PC after it: the core sleeps from here.
+                let mut hw = [0u8; 2];
+                if self.uc.mem_read(pc - 2, &mut hw).is_ok() && u16::from_le_bytes(hw) == 0xBF30 {
+                    let b = self.board_mut();
+                    b.sleeping = true;
+                    b.wfi_count += 1;
                 }
             }
             if let Err(err) = r {
@@ -331,6 +378,9 @@ impl Twin {
                 };
                 self.uc.context_restore(&ctx).map_err(|x| self.fault(format!("{x:?}")))?;
                 self.board_mut().in_pit = false;
+                if self.in_irq != IRQ_PIT {
+                    continue;
+                }
                 if let Some(&entry) = self.stats.pit_entries.last() {
                     if self.stats.pit_instructions.len() < self.stats.pit_entries.len() {
                         let n = self.now().saturating_sub(entry);
@@ -345,10 +395,32 @@ impl Twin {
         Ok(())
     }
 
-    fn enter_pit(&mut self) -> Result<(), Fault> {
+    /// The sleeping core (after WFI): wakes it if an enabled interrupt is
+    /// pending (PRIMASK does not matter: ARMv7-M WFI wakes on any pending
+    /// interrupt that is enabled in the NVIC), else skips time to the next
+    /// event that can raise one, at most to `t_end`. Returns whether the
+    /// core still sleeps.
+    fn sleep(&mut self, t_end: u64) -> bool {
+        let b = self.uc.get_data_mut();
+        if b.pit_irq() || b.uart_irq() {
+            b.sleeping = false;
+            return false;
+        }
+        let target = b.next_wake_event().min(t_end);
+        if target > b.now {
+            self.stats.sleep_cycles += target - b.now;
+            b.now = target;
+            b.last_write_at = target;
+        }
+        b.sync();
+        b.wdog_check();
+        true
+    }
+
+    fn enter_irq(&mut self, irq: u32) -> Result<(), Fault> {
         let e = |x: unicorn_engine::uc_error| format!("{x:?}");
         let vtor = self.board().vtor;
-        let handler = read_u32(&self.uc, u64::from(vtor) + 4 * (16 + u64::from(IRQ_PIT))).map_err(|w| self.fault(w))?;
+        let handler = read_u32(&self.uc, u64::from(vtor) + 4 * (16 + u64::from(irq))).map_err(|w| self.fault(w))?;
         let from = self.next_pc.unwrap_or_else(|| self.uc.reg_read(RegisterARM::PC).unwrap_or(0)) as u32;
         let mut ctx = self.uc.context_alloc().map_err(|x| self.fault(e(x)))?;
         self.uc.context_save(&mut ctx).map_err(|x| self.fault(e(x)))?;
@@ -359,14 +431,20 @@ impl Twin {
             self.uc.reg_write(RegisterARM::SP, nsp).is_ok() && self.uc.reg_write(RegisterARM::LR, SENTINEL | 1).is_ok();
         self.next_pc = Some(u64::from(handler & !1));
         if !ok {
-            return Err(self.fault("cannot enter the PIT handler".into()));
+            return Err(self.fault(format!("cannot enter the handler of IRQ {irq}")));
         }
         self.in_handler = Some(ctx);
+        self.in_irq = irq;
         let b = self.board_mut();
-        b.in_pit = true;
         if std::mem::take(&mut b.irq_wait_unmask) {
             b.irq_unmask_entries += 1;
         }
+        if irq != IRQ_PIT {
+            self.stats.uart_calls += 1;
+            return Ok(());
+        }
+        let b = self.board_mut();
+        b.in_pit = true;
         let now = b.now;
         let raised = b.pit_raised_at().unwrap_or(now);
         self.stats.pit_calls += 1;
@@ -477,6 +555,11 @@ fn read_u32(uc: &Unicorn<'_, Board>, a: u64) -> Result<u32, String> {
 /// numerically lower than the execution priority, which PRIMASK boosts to
 /// 0, FAULTMASK to -1 and a non-zero BASEPRI to its value).
 pub fn pit_masked(uc: &Unicorn<'_, Board>) -> bool {
+    irq_masked(uc, IRQ_PIT)
+}
+
+/// Interrupt `irq` cannot preempt the running code (as [`pit_masked`]).
+pub fn irq_masked(uc: &Unicorn<'_, Board>, irq: u32) -> bool {
     let reg = |r| uc.reg_read(r).unwrap_or(0) as u32;
     if reg(RegisterARM::PRIMASK) & 1 != 0 || reg(RegisterARM::FAULTMASK) & 1 != 0 {
         return true;
@@ -489,7 +572,7 @@ pub fn pit_masked(uc: &Unicorn<'_, Board>) -> bool {
     // AIRCR.PRIGROUP: priority bits [PRIGROUP:0] are the subpriority
     let prigroup = (b.regs.get(&0xE000_ED0C).copied().unwrap_or(0) >> 8) & 7;
     let group = 0xFFu32 << (prigroup + 1);
-    let prio = u32::from(b.nvic_ipr[IRQ_PIT as usize]);
+    let prio = u32::from(b.nvic_ipr[irq as usize]);
     prio & group >= basepri & group
 }
 

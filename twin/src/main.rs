@@ -75,6 +75,12 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
         println!("{line}");
     }
     println!(
+        "main loop slept (WFI): {} times, {:.1} % of simulated time; LPUART6 handler calls {}",
+        b.wfi_count,
+        100.0 * t.stats.sleep_cycles as f64 / b.now.max(1) as f64,
+        t.stats.uart_calls
+    );
+    println!(
         "idle main loop skipped: {} times, {:.1} % of simulated time (TWIN_NO_IDLE_SKIP=1 turns it off)",
         t.stats.idle_skips,
         100.0 * t.stats.idle_cycles as f64 / b.now.max(1) as f64

@@ -18,6 +18,7 @@ mod port;
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use teensy4_bsp as bsp;
 
@@ -46,6 +47,8 @@ use firmware::board::TickBoard;
 use firmware::root::{self, BootReport, Controller, Host, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use protocol::report::config_fingerprint;
+
+use port::Wake;
 
 #[cfg(feature = "tmc5160-selftest")]
 compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wiring in the pin map)");
@@ -148,14 +151,58 @@ static mut LINK: RootLink = RootLink::new();
 #[unsafe(link_section = ".uninit.parol6_panic")]
 static mut PANIC_MARK: MaybeUninit<u32> = MaybeUninit::uninit();
 
+/// PIT interrupts taken so far (wrapping): the main loop sleeps only if no
+/// tick ran since its pass began (a tick may have queued lines).
+static TICKS: AtomicU32 = AtomicU32::new(0);
+
 #[bsp::rt::interrupt]
 fn PIT() {
+    // Single writer (this handler): a plain load and store.
+    TICKS.store(TICKS.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
     // SAFETY: `TICK_CTX` is written by `main` before the PIT interrupt is
     // unmasked and never touched by `main` again; this handler is the only
     // user afterwards and cannot re-enter itself (same priority).
     let ctx = unsafe { (*addr_of_mut!(TICK_CTX)).assume_init_mut() };
     let _ = ctx.board.tick.on_interrupt();
     let _ = ctx.controller.tick(&mut ctx.board);
+}
+
+/// Serial1's interrupt only wakes the main loop from WFI: masked again here
+/// (level-triggered, it would re-enter at once); the main loop polls the
+/// port and unmasks it before its next WFI.
+#[bsp::rt::interrupt]
+fn LPUART6() {
+    NVIC::mask(interrupt::LPUART6);
+}
+
+/// USB's interrupt, likewise only a wake-up (the stack is polled).
+#[bsp::rt::interrupt]
+fn USB_OTG1() {
+    NVIC::mask(interrupt::USB_OTG1);
+}
+
+/// Sleeps until an interrupt if nothing happened since the pass that
+/// started at tick count `seen`. The race between that check and WFI is
+/// closed by masking interrupts (PRIMASK) around both: an interrupt that
+/// becomes pending after the check still ends the WFI (ARMv7-M: WFI wakes
+/// on a pending interrupt whatever PRIMASK says), and is taken once the
+/// mask is lifted. Serial1 and USB are unmasked in the NVIC here, just
+/// before the WFI; their handlers mask them again.
+fn sleep_unless_ticked(seen: u32) {
+    cortex_m::interrupt::disable();
+    if TICKS.load(Ordering::Relaxed) == seen {
+        // SAFETY: the LPUART6 and USB_OTG1 handlers above only mask their
+        // own line; unmasking them cannot break a critical section (PRIMASK
+        // is set until the WFI ends, and no code relies on them masked).
+        unsafe {
+            NVIC::unmask(interrupt::LPUART6);
+            NVIC::unmask(interrupt::USB_OTG1);
+        }
+        cortex_m::asm::wfi();
+    }
+    // SAFETY: interrupts were enabled before `disable` above (the main loop
+    // runs with them enabled); this restores that state.
+    unsafe { cortex_m::interrupt::enable() };
 }
 
 fn led_on(io: &ral::iomuxc::RegisterBlock, gpio2: &ral::gpio::RegisterBlock) {
@@ -217,9 +264,13 @@ fn main() -> ! {
     let (host, boot) = init_root(board, marker, watchdog_reset);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
-    // which is initialised above. Highest priority (0), the only interrupt.
+    // which is initialised above. Highest priority (0); Serial1 and USB
+    // (wake-ups only, unmasked by the main loop before a WFI) below it, so
+    // they never delay a tick.
     unsafe {
         cp.NVIC.set_priority(interrupt::PIT, 0);
+        cp.NVIC.set_priority(interrupt::LPUART6, 0x80);
+        cp.NVIC.set_priority(interrupt::USB_OTG1, 0x80);
         NVIC::unmask(interrupt::PIT);
     }
 
@@ -241,6 +292,7 @@ fn main() -> ! {
     );
     let mut drain = [0u8; 64];
     loop {
+        let seen = TICKS.load(Ordering::Relaxed);
         let now_ms = clock.now_ms(cycles_now());
         // the protocol: bytes -> commands, telemetry -> lines -> port
         host.poll(&mut proto, now_ms);
@@ -251,6 +303,12 @@ fn main() -> ! {
             log.write_raw(drain.get(..n).unwrap_or(&[]));
         }
         log.flush();
+        // Nothing moved on either port and no log frame: sleep until the
+        // next interrupt (the tick, a byte, a USB event, room to transmit).
+        let busy = proto.take_busy() | log.take_busy() | (n > 0);
+        if !busy {
+            sleep_unless_ticked(seen);
+        }
     }
 }
 
@@ -376,8 +434,9 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
     fatal_stop()
 }
 
-/// Any exception or interrupt without a handler of its own (only the PIT
-/// interrupt is enabled; anything else reaching here is a fault).
+/// Any exception or interrupt without a handler of its own (only the PIT,
+/// Serial1 and USB interrupts are enabled; anything else reaching here is
+/// a fault).
 #[cortex_m_rt::exception]
 unsafe fn DefaultHandler(_irqn: i16) -> ! {
     fatal_stop()

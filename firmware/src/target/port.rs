@@ -1,5 +1,6 @@
 //! The two byte ports: USB CDC (imxrt-usbd + usbd-serial, polled from the
-//! main loop, no USB interrupt) and Serial1 (the thin HAL's LPUART6), as
+//! main loop; its interrupt only wakes the core from WFI) and Serial1 (the
+//! thin HAL's LPUART6, likewise), as
 //! [`Port`]s of the shared composition root: they only move bytes; the
 //! transmit ring, its policy and the loss reports are `firmware::tx`. The
 //! port that does not carry the protocol carries the defmt log through a
@@ -23,6 +24,7 @@ const LOG_CAP: usize = 1024;
 pub struct Usb {
     dev: UsbDevice<'static, BusAdapter>,
     serial: SerialPort<'static, BusAdapter>,
+    busy: bool,
 }
 
 static EP_MEMORY: EndpointMemory<2048> = EndpointMemory::new();
@@ -36,6 +38,9 @@ impl Usb {
     /// Take USB1 and start the device stack.
     pub fn new(usb: ral::usb::USB1, usbphy: ral::usbphy::USBPHY1, usbnc: ral::usbnc::USBNC1) -> Self {
         let bus = BusAdapter::with_speed(Instances { usb, usbphy, usbnc }, &EP_MEMORY, &EP_STATE, Speed::LowFull);
+        // Transfer-complete and bus-reset interrupts: they wake the main
+        // loop from WFI (the handler in `mod.rs` masks the line again).
+        bus.set_interrupts(true);
         // SAFETY: called once from `main` (it owns USB1, which cannot be
         // taken twice); the allocator then lives for the rest of the program.
         let alloc: &'static UsbBusAllocator<BusAdapter> =
@@ -51,13 +56,16 @@ impl Usb {
             Err(_) => super::halt(),
         };
         let dev = builder.build();
-        Self { dev, serial }
+        Self { dev, serial, busy: false }
     }
 }
 
 impl Port for Usb {
     fn poll(&mut self) {
-        self.dev.poll(&mut [&mut self.serial]);
+        // (What `poll` reports is not work for the main loop: a transfer
+        // it completes wakes the core through the USB interrupt; bytes it
+        // brings are read in this pass.)
+        let _ = self.dev.poll(&mut [&mut self.serial]);
     }
     fn is_open(&self) -> bool {
         self.dev.state() == UsbDeviceState::Configured && self.serial.dtr()
@@ -65,7 +73,10 @@ impl Port for Usb {
     fn read(&mut self) -> Option<u8> {
         let mut b = [0u8; 1];
         match self.serial.read(&mut b) {
-            Ok(1) => Some(b[0]),
+            Ok(1) => {
+                self.busy = true;
+                Some(b[0])
+            }
             _ => None,
         }
     }
@@ -76,19 +87,41 @@ impl Port for Usb {
         // WouldBlock (endpoint busy) and errors: nothing taken this pass.
         let n = self.serial.write(bytes).unwrap_or_default();
         let _ = self.serial.flush();
+        self.busy |= n > 0;
         n
     }
 }
 
-/// Serial1 (LPUART6, pins 0/1), polled.
+impl Wake for Usb {
+    fn take_busy(&mut self) -> bool {
+        core::mem::take(&mut self.busy)
+    }
+}
+
+/// What the main loop needs of a port to decide whether it may sleep.
+pub trait Wake {
+    /// The port moved a byte since the last call.
+    fn take_busy(&mut self) -> bool;
+}
+
+/// Serial1 (LPUART6, pins 0/1), polled; its interrupt wakes the core on a
+/// received byte, and on an empty transmit FIFO while bytes wait for room.
 pub struct Uart {
     hw: Serial1,
+    busy: bool,
 }
 
 impl Uart {
     /// Wrap the configured port.
-    pub fn new(hw: Serial1) -> Self {
-        Self { hw }
+    pub fn new(mut hw: Serial1) -> Self {
+        hw.set_interrupts(true, false);
+        Self { hw, busy: false }
+    }
+}
+
+impl Wake for Uart {
+    fn take_busy(&mut self) -> bool {
+        core::mem::take(&mut self.busy)
     }
 }
 
@@ -101,7 +134,10 @@ impl Port for Uart {
         // damaged line (counted and reported).
         loop {
             match self.hw.try_read()? {
-                Ok(b) => return Some(b),
+                Ok(b) => {
+                    self.busy = true;
+                    return Some(b);
+                }
                 Err(_) => continue,
             }
         }
@@ -114,6 +150,9 @@ impl Port for Uart {
             }
             n += 1;
         }
+        self.busy |= n > 0;
+        // Bytes left over wait for the FIFO to empty: wake on it.
+        self.hw.set_interrupts(true, n < bytes.len());
         n
     }
 }
@@ -145,6 +184,13 @@ impl<P: Port> LogPort<P> {
                 break;
             }
         }
+    }
+    /// The wrapped port moved a byte since the last call.
+    pub fn take_busy(&mut self) -> bool
+    where
+        P: Wake,
+    {
+        self.port.take_busy()
     }
     /// Move queued bytes to the hardware as far as it takes them.
     pub fn flush(&mut self) {

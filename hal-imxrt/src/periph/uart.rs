@@ -57,6 +57,14 @@ impl Serial1 {
         true
     }
 
+    /// Which states raise the LPUART6 interrupt: a received byte waiting
+    /// (`RIE`, `RDRF` with `RXWATER` 0) and an empty transmit FIFO (`TIE`,
+    /// `TDRE` with `TXWATER` 0). The main loop uses them only to wake from
+    /// WFI; the handler masks the interrupt in the NVIC.
+    pub fn set_interrupts(&mut self, rx: bool, tx: bool) {
+        ral::modify_reg!(ral::lpuart, self.uart, CTRL, RIE: rx as u32, TIE: tx as u32);
+    }
+
     /// Take one received byte, if any.
     pub fn try_read(&mut self) -> Option<Result<u8, RxError>> {
         let stat = ral::read_reg!(ral::lpuart, self.uart, STAT);
