@@ -1,4 +1,4 @@
-//! Register-level twin of the PAROL6 Teensy 4.1 board (issue 11): the
+//! Register-level twin of the PAROL6 Teensy 4.1 board: the
 //! shipped release image executed by Unicorn with i.MXRT1062 peripheral
 //! models and a stepper plant. See `twin/README.md` for what is modelled.
 

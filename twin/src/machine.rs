@@ -62,7 +62,7 @@ pub struct Stats {
     pub pit_from: Vec<u32>,
     /// Instructions executed by each PIT handler call, entry to return
     /// (bounded): the whole interrupt (sense mapping, kernel tick, step
-    /// commands, telemetry push, watchdog), as issue 14 asks.
+    /// commands, telemetry push, watchdog).
     pub pit_instructions: Vec<u64>,
     /// Stops where the CPU did not halt at the block that requested the
     /// stop (would mean a miscounted block; expected 0).
@@ -515,6 +515,8 @@ impl Twin {
         }
         self.next_pc = Some(u64::from(target & !1));
         self.in_handler = Some(ctx);
+        // An exception taken ends a WFI: the core runs the handler now.
+        self.board_mut().sleeping = false;
         Ok(())
     }
 
@@ -635,7 +637,15 @@ fn ppb_write(b: &mut Board, a: u32, size: usize, v: u32) {
             b.demcr = v;
             set_cyccnt(b, before);
         }
-        x @ 0xE000_E100..=0xE000_E11C => b.nvic_en[((x - 0xE000_E100) / 4) as usize] |= v,
+        x @ 0xE000_E100..=0xE000_E11C => {
+            b.nvic_en[((x - 0xE000_E100) / 4) as usize] |= v;
+            // Enabling an interrupt that is already pending: the core takes
+            // it at once (after this instruction), so the run stops at the
+            // next block for the harness to deliver it.
+            if v != 0 {
+                b.stop_at = b.now + 1;
+            }
+        }
         x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize] &= !v,
         x => {
             b.regs.insert(x, v);

@@ -166,7 +166,7 @@ pub const fn xbar_inout_function(p: Pad) -> Option<(u32, usize)> {
     }
 }
 
-/// The default wiring the twin connects (J1..J6): ROBOT.md section 2, the
+/// The default wiring the twin connects (J1..J6): docs/spec/robot.md section 2, the
 /// original wiring (J6 STEP on pin 7), the firmware's default map.
 #[derive(Clone, Copy, Debug)]
 pub struct Wiring {
@@ -190,7 +190,7 @@ pub const WIRING: Wiring = Wiring {
 
 /// The wiring the twin connects: [`WIRING`], or with `TWIN_J6_PIN=36` in
 /// the environment J6 STEP on pin 36 (for images built with the firmware's
-/// `j6-pin36` feature or before issue 11 defect 8, e.g. to reproduce a
+/// `j6-pin36` feature or without the fix of defect 8, e.g. to reproduce a
 /// test's figures on the image of an older commit).
 pub fn wiring() -> &'static Wiring {
     static W: std::sync::OnceLock<Wiring> = std::sync::OnceLock::new();

@@ -17,7 +17,7 @@
 
 use kernel::config::AXES;
 use sim::client::driver_view;
-use sim::scenario::{Action, Anchor, Scenario};
+use sim::scenario::{Action, Anchor, Expect, Scenario};
 use sim::stream::{Hosts, Stream};
 
 use crate::{Plant, Twin, MS};
@@ -160,4 +160,136 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
     out.pit_instructions = t.stats.pit_instructions.clone();
     out.pit_profile = t.pit_profile();
     Ok(out)
+}
+
+/// One expectation of a scenario as the twin judges it.
+#[derive(Clone, Debug)]
+pub struct Check {
+    /// The expectation, as the simulator prints it.
+    pub what: String,
+    /// Held or failed; `None` where the twin cannot observe it (it needs
+    /// the simulator's per-tick trace: states, speeds, tracking, targets).
+    pub held: Option<bool>,
+    /// What was found.
+    pub detail: String,
+}
+
+/// The fault lines among the events: (ms, reason after `FAULT ` or
+/// `HOMING_FAULT `).
+fn fault_lines(o: &Outcome) -> Vec<(u64, &str)> {
+    o.events
+        .iter()
+        .filter_map(|(t, l)| l.strip_prefix("FAULT ").or_else(|| l.strip_prefix("HOMING_FAULT ")).map(|r| (*t, r)))
+        .collect()
+}
+
+/// A fault reason on the wire (`LIMIT_SWITCH J2`) is of the scenario's
+/// `kind` (`limit-switch`, `encoder` for lost or jump, `any`) and joint.
+fn fault_is(kind: &str, joint: Option<usize>, reason: &str) -> bool {
+    let kind_ok = match kind {
+        "any" => true,
+        "encoder" => reason.starts_with("ENCODER_LOST") || reason.starts_with("ENCODER_JUMP"),
+        k => reason.starts_with(&k.to_ascii_uppercase().replace('-', "_")),
+    };
+    kind_ok && joint.is_none_or(|j| reason.split_whitespace().any(|w| w == format!("J{}", j + 1)))
+}
+
+/// Judges `sc`'s expectations on the twin's outcome `o`: faults, anchors
+/// and the event lines (the lines that are not feedback) are observable;
+/// the rest is reported as not checked.
+pub fn check(sc: &Scenario, o: &Outcome) -> Vec<Check> {
+    let mut out = Vec::new();
+    for outer in &sc.expects {
+        let (pending, e) = match outer {
+            Expect::Pending(inner) => (true, inner.as_ref()),
+            e => (false, e),
+        };
+        let (held, detail) = judge(e, o);
+        if pending {
+            let verdict = match held {
+                Some(true) => "now HOLDS: remove `pending`",
+                Some(false) => "fails, as the reported kernel defect predicts",
+                None => "not observable on the twin",
+            };
+            out.push(Check {
+                what: outer.to_string(),
+                held: held.map(|_| true),
+                detail: format!("{verdict}; {detail}"),
+            });
+        } else {
+            out.push(Check { what: e.to_string(), held, detail });
+        }
+    }
+    out
+}
+
+fn judge(e: &Expect, o: &Outcome) -> (Option<bool>, String) {
+    let faults = fault_lines(o);
+    let events = |text: &str| o.events.iter().find(|(_, l)| l.contains(text));
+    let listed = || faults.iter().map(|(t, r)| format!("{r} at {t} ms")).collect::<Vec<_>>().join("; ");
+    match e {
+        Expect::NoFault => (Some(faults.is_empty()), format!("{} fault line(s) {}", faults.len(), listed())),
+        Expect::Fault(kind, j) => {
+            let hit = faults.iter().any(|(_, r)| fault_is(kind, *j, r));
+            (Some(hit), if faults.is_empty() { "no fault line".into() } else { listed() })
+        }
+        Expect::FaultWithin(w, ms, kind, j) => match w.resolve(&o.anchors) {
+            None => (Some(false), format!("{w} never happened")),
+            Some(at) => {
+                let hit = faults.iter().find(|(t, r)| *t >= at && *t <= at + ms && fault_is(kind, *j, r));
+                match hit {
+                    Some((t, r)) => (Some(true), format!("{r} at {t} ms ({} ms after {at} ms)", t - at)),
+                    None => (Some(false), if faults.is_empty() { "no fault line".into() } else { listed() }),
+                }
+            }
+        },
+        Expect::HomedBy(w) => {
+            let h = o.anchors[Anchor::Homed.index()].first().copied();
+            match (h, w.resolve(&o.anchors)) {
+                (Some(h), Some(by)) => (Some(h <= by), format!("HOMING_DONE at {h} ms")),
+                (None, _) => (Some(false), "never homed".into()),
+                (Some(h), None) => (Some(false), format!("HOMING_DONE at {h} ms, {w} never happened")),
+            }
+        }
+        // Feedback lines (`<...`) are not kept: only event-line texts.
+        Expect::Line(text) | Expect::NoLine(text) | Expect::LineWithin(_, _, text) if text.starts_with('<') => {
+            (None, "feedback lines are not kept by the twin".into())
+        }
+        Expect::Line(text) => {
+            let hit = events(text);
+            (Some(hit.is_some()), hit.map(|(t, l)| format!("at {t} ms: {l}")).unwrap_or("not found".into()))
+        }
+        Expect::NoLine(text) => {
+            let hit = events(text);
+            (Some(hit.is_none()), hit.map(|(t, l)| format!("at {t} ms: {l}")).unwrap_or("none".into()))
+        }
+        Expect::LineWithin(w, ms, text) => match w.resolve(&o.anchors) {
+            None => (Some(false), format!("{w} never happened")),
+            Some(at) => {
+                let hit = o.events.iter().find(|(t, l)| *t >= at && *t <= at + ms && l.contains(text.as_str()));
+                match hit {
+                    Some((t, l)) => (Some(true), format!("at {t} ms ({} ms after {at} ms): {l}", t - at)),
+                    None => (Some(false), "not found in the window".into()),
+                }
+            }
+        },
+        Expect::LineSequence(texts) => {
+            let mut from = 0usize;
+            let mut found = Vec::new();
+            for text in texts {
+                match o.events.iter().enumerate().skip(from).find(|(_, (_, l))| l.contains(text.as_str())) {
+                    Some((k, (t, _))) => {
+                        found.push(format!("{text:?} at {t} ms"));
+                        from = k + 1;
+                    }
+                    None => {
+                        found.push(format!("{text:?} not found after that"));
+                        return (Some(false), found.join(", "));
+                    }
+                }
+            }
+            (Some(true), found.join(", "))
+        }
+        _ => (None, "not observable on the twin (needs the simulator's per-tick trace)".into()),
+    }
 }

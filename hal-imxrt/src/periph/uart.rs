@@ -1,7 +1,8 @@
-//! Serial1 = LPUART6 on Teensy pins 0 (RX) / 1 (TX), 8N1, polled.
+//! Serial1 = LPUART6 on Teensy pins 0 (RX) / 1 (TX), 8N1, polled; its
+//! interrupt only wakes the main loop from WFI.
 //!
-//! (The brief called this LPUART1; on the Teensy 4.1, LPUART1 is on pins
-//! 24/25, here limit switches. Serial1 is LPUART6.)
+//! (Not LPUART1: on the Teensy 4.1, LPUART1 is on pins 24/25, here limit
+//! switches. Serial1 is LPUART6.)
 
 use crate::pure::uart::BaudDivisor;
 use imxrt_ral as ral;
