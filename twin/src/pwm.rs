@@ -9,8 +9,8 @@
 //! next full-cycle reload (`CTRL[FULL]`) when `LDOK` is set, or immediately
 //! upon `LDOK` being set if `LDMOD = 1` (imxrt-ral `SMCTRL[LDMOD]` field
 //! docs); `LDOK` then clears (`CLDOK` clears it by software). Setting `RUN`
-//! loads nothing (the field docs name no such load; an earlier version of
-//! this model loaded on `RUN` 0 -> 1 and so hid issue 11 defect 3): the
+//! loads nothing (the field docs name no such load; a model that loads on
+//! `RUN` 0 -> 1 hides defect 3 of twin/README.md): the
 //! counter starts from its current value with the active registers. `CTRL2[FORCE]` with `FRCEN` and
 //! `FORCE_SEL = 0` re-initialises the counter to `INIT` (no buffer load).
 //! `MASK` (with `UPDATE_MASK`: immediately; otherwise at the next reload)
@@ -88,11 +88,11 @@ pub struct Submodule {
     pub starts: u64,
     /// Starts whose active period (`VAL1`, `PRSC`) differed from the
     /// buffered one written for it: the first period ran at a stale rate
-    /// (issue 11 defect 3). (active, buffered) period in cycles of the last.
+    /// (defect 3 of twin/README.md). (active, buffered) period in cycles of the last.
     pub stale_starts: u64,
     /// The last stale start: (active, buffered) period in CPU cycles.
     pub last_stale: Option<(u64, u64)>,
-    /// Rising edges at the very instant of a start (issue 11 defect 4).
+    /// Rising edges at the very instant of a start (defect 4 of twin/README.md).
     pub rises_at_start: u64,
     /// Start times (cycles; the time of the last sync before the `RUN`
     /// write), bounded.
