@@ -95,6 +95,21 @@ fn run(cmd: &str, ms: u64) -> Result<(), String> {
     if let Some(line) = twin::pit_instruction_summary(&t.stats.pit_instructions) {
         println!("{line}");
     }
+    // The first entry is left out: it comes when the image unmasks the
+    // PIT, late if the boot self-test left the flag set.
+    let lat = t.stats.pit_latency.get(1..).unwrap_or(&[]);
+    let worst = lat.iter().enumerate().max_by_key(|(_, l)| **l);
+    if let (Some(lo), Some((k, hi))) = (lat.iter().min(), worst) {
+        let others = lat.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, l)| *l).max().unwrap_or(0);
+        let from = t.stats.pit_from.get(k + 1).map(|&a| t.image.symbolize(a)).unwrap_or_default();
+        println!(
+            "PIT entry latency (expiry to handler entry) over {} ticks after the first: {lo}..{hi} cycles, mean {:.1}; \
+             the largest at tick {} (interrupted at {from}), the others at most {others}",
+            lat.len(),
+            lat.iter().sum::<u64>() as f64 / lat.len() as f64,
+            k + 1
+        );
+    }
     println!(
         "main loop slept (WFI): {} times, {:.1} % of simulated time; LPUART6 handler calls {}",
         b.wfi_count,
