@@ -2,7 +2,7 @@
 //! to the plant. Time is `now`, in CPU cycles = executed instructions (the
 //! twin counts 1 instruction as 1 cycle at 600 MHz).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use crate::lpuart::Uart;
 use crate::lpuart::IRQ_LPUART6;
@@ -51,7 +51,7 @@ pub struct Board {
     /// Simulated time in CPU cycles.
     pub now: u64,
     /// Generic register file for unmodelled registers (address -> value).
-    pub regs: HashMap<u32, u32>,
+    pub regs: FxHashMap<u32, u32>,
     /// GPIO1..4.
     pub gpio: [Gpio; 4],
     /// PIT.
@@ -68,7 +68,7 @@ pub struct Board {
     pub xbar: [u8; 132],
     /// The last FlexPWM trigger selected per XBARA1 output (bookkeeping: the
     /// output's pulse log while `LOGIC_LOW` is selected).
-    pub xbar_last_trigger: HashMap<usize, (usize, usize)>,
+    pub xbar_last_trigger: FxHashMap<usize, (usize, usize)>,
     /// The arm.
     pub plant: Plant,
     /// SRC SRSR.
@@ -89,7 +89,7 @@ pub struct Board {
     /// Pending reset.
     pub reset: Option<Reset>,
     /// Log of accesses to unmodelled registers (address, write?) for diagnostics.
-    pub unmodelled: HashMap<u32, u64>,
+    pub unmodelled: FxHashMap<u32, u64>,
     /// The CPU stops at the next block boundary at or after this time.
     pub stop_at: u64,
     /// Hint instructions (YIELD/WFE/WFI/SEV) patched to NOP.
@@ -125,7 +125,7 @@ pub struct Board {
     pub in_pit: bool,
     /// Instructions executed inside the PIT handler, per translated-block
     /// address (the per-function profile of the tick interrupt).
-    pub pit_blocks: HashMap<u32, u64>,
+    pub pit_blocks: FxHashMap<u32, u64>,
     /// Address of `main` (the image's entry after the runtime's reset code).
     pub main_addr: u32,
     /// Times (cycles) at which `main` was entered, one per boot.
@@ -150,7 +150,7 @@ impl Board {
     pub fn new(plant: Plant) -> Self {
         let mut b = Board {
             now: 0,
-            regs: HashMap::new(),
+            regs: FxHashMap::default(),
             gpio: Default::default(),
             pit: Pit::default(),
             wdog: Wdog::default(),
@@ -158,7 +158,7 @@ impl Board {
             tmr: Default::default(),
             pwm: Default::default(),
             xbar: [0; 132],
-            xbar_last_trigger: HashMap::new(),
+            xbar_last_trigger: FxHashMap::default(),
             plant,
             srsr: 1, // IPP_RESET_B: power-on
             vtor: 0,
@@ -168,7 +168,7 @@ impl Board {
             dwt_ctrl: 0x4000_0000,
             demcr: 0,
             reset: None,
-            unmodelled: HashMap::new(),
+            unmodelled: FxHashMap::default(),
             stop_at: 0,
             hints_patched: 0,
             it_deferred: 0,
@@ -182,7 +182,7 @@ impl Board {
             trace: [0; 16],
             trace_i: 0,
             in_pit: false,
-            pit_blocks: HashMap::new(),
+            pit_blocks: FxHashMap::default(),
             main_addr: u32::MAX,
             main_at: Vec::new(),
             faults_forced_inactive: false,
@@ -241,11 +241,16 @@ impl Board {
             }
         }
         let routes = self.pwm_routes();
-        let before = self.step_pulses();
+        // The outputs behind the STEP pins, found once: advancing the PWMs
+        // changes no pad routing.
+        let sources: [Option<(usize, usize, usize)>; 6] = core::array::from_fn(|i| self.step_source(i));
+        let pulses =
+            |b: &Board| -> [u64; 6] { sources.map(|src| src.map_or(0, |(m, s, l)| b.pwm[m - 1].sm[s].log[l].pulses)) };
+        let before = pulses(self);
         for (m, p) in self.pwm.iter_mut().enumerate() {
             p.advance(now, &routes[m]);
         }
-        let after = self.step_pulses();
+        let after = pulses(self);
         for i in 0..6 {
             let d = after[i] - before[i];
             if d > 0 {

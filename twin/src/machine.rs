@@ -8,6 +8,8 @@
 
 use std::collections::HashMap;
 
+use rustc_hash::FxHashMap;
+
 use unicorn_engine::{Arch, ArmCpuModel, Context, Mode, Prot, RegisterARM, Unicorn};
 
 use crate::board::{Board, Reset};
@@ -147,7 +149,8 @@ impl Twin {
         )
         .map_err(e)?;
         // time: one instruction = one cycle, counted per translated block
-        let mut cache: HashMap<u64, u64> = HashMap::new();
+        // (FxHash: this map is read once per executed block.)
+        let mut cache: FxHashMap<u64, u64> = FxHashMap::default();
         uc.add_block_hook(1, 0, move |uc: &mut Unicorn<'_, Board>, addr: u64, size: u32| {
             let n = *cache.entry(addr).or_insert_with(|| {
                 let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
