@@ -19,7 +19,8 @@ pub trait TickBoard {
     /// Program all six step outputs at once (the root passes all six or
     /// six `Stop`s).
     fn apply(&mut self, cmds: &[StepCommand; AXES]);
-    /// Refresh the watchdog (called once at the end of every tick).
+    /// Refresh the watchdog (called once at the end of a tick whose
+    /// program-flow check passed, see [`crate::flow`]).
     fn feed_watchdog(&mut self);
     /// Free-running CPU cycle counter (600 MHz on the Teensy).
     fn cycles(&self) -> u32;

@@ -9,6 +9,7 @@
 //!
 //! * [`root`]: the composition root (tick half and main-loop half);
 //! * [`board`]: the board interface the root is generic over;
+//! * [`flow`]: the tick's program-flow check that gates the watchdog refresh;
 //! * [`tx`]: the transmit ring with counted, reported drops;
 //! * [`sense`]: HAL readings -> [`kernel::Sense`];
 //! * [`act`]: kernel step rates -> `hal_imxrt` step commands (all or none);
@@ -20,6 +21,7 @@
 #![deny(clippy::arithmetic_side_effects)]
 
 pub mod board;
+pub mod flow;
 pub mod root;
 pub mod tx;
 

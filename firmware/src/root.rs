@@ -42,6 +42,7 @@ use protocol::report::{banner_line, config_fingerprint, is_critical, queue_full_
 use protocol::{Command, Line, ProtocolConfig};
 
 use crate::board::{Port, TickBoard};
+use crate::flow::{FlowMonitor, Step};
 use crate::tx::{Class, Tx, TxCounters};
 use crate::{CMD_SLOTS, TEL_SLOTS};
 
@@ -114,6 +115,7 @@ pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Co
         last_us: 0,
         ack: 0,
         rec: TickRecord::EMPTY,
+        flow: FlowMonitor::new(),
     };
     let host = Host {
         rx: Receiver::new(cfg, host.protocol),
@@ -191,6 +193,9 @@ pub struct Controller<'a> {
     /// events and step commands of the last tick (a PIT frame holding every
     /// one of them, plus their copies, measured 624 B).
     rec: TickRecord,
+    /// The tick's program-flow check: the watchdog is refreshed only after
+    /// a tick whose steps all ran once and in order.
+    flow: FlowMonitor,
 }
 
 impl core::fmt::Debug for Controller<'_> {
@@ -245,7 +250,10 @@ impl Controller<'_> {
 
     /// One control tick: sense -> one request -> kernel -> act (all six or
     /// none) -> telemetry -> reset policy -> watchdog -> overrun check. No
-    /// allocation, no blocking, no formatting.
+    /// allocation, no blocking, no formatting. The watchdog is refreshed
+    /// only if the program-flow check ([`crate::flow`]) saw every step
+    /// once and in order; a broken sequence is latched, so the watchdog
+    /// then resets the chip.
     ///
     /// The tick works in the controller's own record (`rec`), not in stack
     /// locals, and its steps are separate functions, so the interrupt's
@@ -270,7 +278,9 @@ impl Controller<'_> {
                 let _ = ch.on_fault_held();
             }
         }
-        board.feed_watchdog();
+        if self.flow.end_of_tick() {
+            board.feed_watchdog();
+        }
         if board.end_of_tick() {
             self.pending_fault = Some(HardwareFault::TickOverrun);
         }
@@ -283,11 +293,13 @@ impl Controller<'_> {
     #[inline(never)]
     fn sense_step<B: TickBoard + ?Sized>(&mut self, board: &mut B) {
         let snaps = board.capture();
+        self.flow.mark(Step::Sense);
         for ((r, s), ch) in self.rec.readings.iter_mut().zip(snaps.iter()).zip(self.channels.iter_mut()) {
             *r = ch.update(*s);
         }
         let limits = self.sample_limits(board);
         self.rec.sense = crate::sense(&self.rec.readings, &limits, self.pending_fault.take(), self.link.link_lost());
+        self.flow.mark(Step::Estimate);
     }
 
     /// Tick steps 2 and 3: at most one command from the queue (ENABLE
@@ -304,10 +316,12 @@ impl Controller<'_> {
         let request = cmd.map(|c| c.into_request(authority));
         self.rec.request = request.as_ref().map(|r| r.kind());
         self.rec.target = target;
+        self.flow.mark(Step::Request);
         let rec = &mut self.rec;
         rec.act = Actuation::zero();
         rec.events = Events::new();
         self.kernel.tick_into(&rec.sense, request, &mut rec.act, &mut rec.events);
+        self.flow.mark(Step::Supervise);
         if let Some(seq) = seq {
             let refused = rec.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
             if !refused {
@@ -321,7 +335,9 @@ impl Controller<'_> {
     #[inline(never)]
     fn act_step<B: TickBoard + ?Sized>(&mut self, board: &mut B) {
         let refused = crate::act_into(&self.rec.act.step_rate, &self.step_cfg, &mut self.rec.cmds);
+        self.flow.mark(Step::Act);
         board.apply(&self.rec.cmds);
+        self.flow.mark(Step::StepCommands);
         if let Some(axis) = refused {
             self.pending_fault = Some(HardwareFault::Driver { axis });
         }
@@ -340,6 +356,7 @@ impl Controller<'_> {
         if self.divider.tick() {
             self.send_status();
         }
+        self.flow.mark(Step::Telemetry);
     }
 
     /// The status line's snapshot (built only when it is due).
@@ -347,6 +364,12 @@ impl Controller<'_> {
     fn send_status(&mut self) {
         let status = self.kernel.status(self.rec.sense.limits);
         self.link.send(Telemetry::Status { status, tick_us: self.last_us, ack: self.ack });
+    }
+
+    /// The program-flow check has seen a broken tick (latched: the
+    /// watchdog is no longer refreshed).
+    pub fn flow_broken(&self) -> bool {
+        self.flow.broken()
     }
 
     /// The kernel (read-only).
@@ -489,5 +512,51 @@ impl Host<'_> {
     /// Commands refused by the full command queue.
     pub fn queue_refused(&self) -> u32 {
         self.link.refused()
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::arithmetic_side_effects)]
+mod tests {
+    use super::*;
+    use hal_imxrt::pure::frame::Snapshot;
+    use kernel::config::PAROL6_VALIDATED;
+
+    /// A board that records the watchdog refreshes and nothing else.
+    #[derive(Default)]
+    struct Feeds {
+        feeds: u32,
+    }
+
+    impl TickBoard for Feeds {
+        fn capture(&mut self) -> [Snapshot; AXES] {
+            [Snapshot { ief: false, input_high: false, capt: 0, cntr: 0, cycles: 0, consistent: true }; AXES]
+        }
+        fn limit_levels(&mut self) -> u8 {
+            0x3F
+        }
+        fn apply(&mut self, _cmds: &[StepCommand; AXES]) {}
+        fn feed_watchdog(&mut self) {
+            self.feeds += 1;
+        }
+        fn cycles(&self) -> u32 {
+            0
+        }
+        fn end_of_tick(&mut self) -> bool {
+            false
+        }
+        fn boot_wait_ms(&mut self) {}
+    }
+
+    #[test]
+    fn every_complete_tick_refreshes_the_watchdog_once() {
+        let mut link = RootLink::new();
+        let (mut controller, _host) = new(&PAROL6_VALIDATED, &mut link, HostConfig::USB);
+        let mut board = Feeds::default();
+        for n in 1..=50 {
+            let _ = controller.tick(&mut board);
+            assert_eq!(board.feeds, n);
+        }
+        assert!(!controller.flow_broken());
     }
 }

@@ -42,7 +42,7 @@ const FAULT_XBAR: [[usize; 4]; 4] = [[35, 36, 37, 38], [49, 50, 37, 38], [56, 57
 /// What happened that the machine must act on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reset {
-    /// RTWDOG timeout.
+    /// RTWDOG timeout, or a refresh inside its closed window.
     Watchdog,
 }
 
@@ -533,7 +533,16 @@ impl Board {
                 self.pit.write(off, v, self.now);
                 return;
             }
-            RTWDOG => return self.wdog.write(off, v, self.now),
+            RTWDOG => {
+                self.wdog.write(off, v, self.now);
+                if std::mem::take(&mut self.wdog.reset_request) {
+                    // a refresh inside the window: reset at once (the CPU
+                    // stops at the next block)
+                    self.reset = Some(Reset::Watchdog);
+                    self.stop_at = self.now;
+                }
+                return;
+            }
             LPUART6 => {
                 let byte = self.uart_byte_cycles();
                 return self.uart.write(off, v, self.now, byte);

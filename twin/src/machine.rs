@@ -71,6 +71,8 @@ pub struct Stats {
     pub stop_mismatch: u64,
     /// Chip resets by the watchdog.
     pub watchdog_resets: u64,
+    /// Time (cycles) of each watchdog reset.
+    pub watchdog_reset_at: Vec<u64>,
     /// Idle main-loop stretches skipped, and the cycles skipped.
     pub idle_skips: u64,
     /// Cycles skipped as idle.
@@ -293,6 +295,8 @@ impl Twin {
         while self.now() < t_end {
             if let Some(Reset::Watchdog) = self.board_mut().reset.take() {
                 self.stats.watchdog_resets += 1;
+                let at = self.now();
+                self.stats.watchdog_reset_at.push(at);
                 let b = self.board_mut();
                 b.reset_peripherals();
                 b.srsr = 1 << 7; // WDOG3_RST_B
@@ -496,6 +500,13 @@ impl Twin {
         };
         self.enter_at(a, (SENTINEL | 1) as u32, args)?;
         Ok(a)
+    }
+
+    /// Call the code at `addr` (Thumb; e.g. a test's own code written to
+    /// unused RAM) like [`Twin::call_symbol`]: from the current context,
+    /// which is restored when it returns.
+    pub fn call_at(&mut self, addr: u32, args: &[u32]) -> Result<(), Fault> {
+        self.enter_at(addr, (SENTINEL | 1) as u32, args)
     }
 
     fn enter_at(&mut self, target: u32, lr: u32, args: &[u32]) -> Result<(), Fault> {

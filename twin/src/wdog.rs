@@ -1,6 +1,9 @@
 //! The RTWDOG watchdog: unlock and refresh sequences, `CS`/`TOVAL`/`WIN`,
-//! its counter from the LPO (32 kHz) or the bus clock, and the deadline
-//! that resets the chip.
+//! its counter from the LPO (32 kHz) or the bus clock, the deadline that
+//! resets the chip, window mode (`CS[WIN]`: a refresh while the counter is
+//! below `WIN` resets the chip) and the configuration lock (`CS[UPDATE] =
+//! 0` written: the unlock key no longer unlocks, so `CS`, `TOVAL` and `WIN`
+//! keep their values until the chip resets).
 
 use crate::board::CPU_HZ;
 
@@ -27,6 +30,14 @@ pub struct Wdog {
     pub unlocked_until: u64,
     /// Refreshes seen.
     pub refreshes: u64,
+    /// Refreshes inside the closed window (each one resets the chip).
+    pub early_refreshes: u64,
+    /// Configured with `UPDATE = 0`: locked until the chip resets.
+    pub locked: bool,
+    /// Unlock attempts ignored because the configuration was locked.
+    pub locked_unlocks: u64,
+    /// A refresh inside the closed window asks for a chip reset.
+    pub reset_request: bool,
 }
 
 impl Wdog {
@@ -70,15 +81,34 @@ impl Wdog {
         }
     }
 
+    /// The counter, in watchdog clocks since the last refresh or
+    /// configuration.
+    fn counter(&self, now: u64) -> u64 {
+        (now.saturating_sub(self.since) as f64 / self.tick_cycles()) as u64
+    }
+
     /// Register write at offset `off`.
     pub fn write(&mut self, off: u32, v: u32, now: u64) {
         let unlocked = now < self.unlocked_until;
         match off {
             0x4 => {
                 if v == UNLOCK {
-                    // unlock window: 255 bus clocks (IPG = 4 cycles)
-                    self.unlocked_until = now + 255 * 4;
+                    if self.locked {
+                        // UPDATE = 0: no reconfiguration until reset (the
+                        // unlock is not granted; whether the silicon also
+                        // resets on the attempt is not modelled)
+                        self.locked_unlocks += 1;
+                    } else {
+                        // unlock window: 255 bus clocks (IPG = 4 cycles)
+                        self.unlocked_until = now + 255 * 4;
+                    }
                 } else if v == REFRESH {
+                    let enabled = self.cs & (1 << 7) != 0;
+                    let window = self.cs & (1 << 15) != 0;
+                    if enabled && window && self.counter(now) < u64::from(self.win) {
+                        self.early_refreshes += 1;
+                        self.reset_request = true;
+                    }
                     self.since = now;
                     self.refreshes += 1;
                 }
@@ -87,6 +117,7 @@ impl Wdog {
                 self.cs = v & !(1 << 14);
                 self.since = now;
                 self.unlocked_until = 0;
+                self.locked = v & (1 << 5) == 0;
             }
             0x8 if unlocked => self.toval = v & 0xFFFF,
             0xC if unlocked => self.win = v & 0xFFFF,

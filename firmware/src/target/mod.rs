@@ -36,7 +36,8 @@ use hal_imxrt::periph::uart::Serial1;
 use hal_imxrt::periph::watchdog::Watchdog;
 use hal_imxrt::periph::{clocks, iomux, panic_stop};
 use hal_imxrt::pure::clock::{
-    pit_load_value, rtwdog_toval, CYCLES_PER_MS, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US,
+    pit_load_value, rtwdog_toval, rtwdog_win, CYCLES_PER_MS, OSC_HZ, RTWDOG_LPO_HZ, TICK_HZ, WATCHDOG_TIMEOUT_US,
+    WATCHDOG_WINDOW_US,
 };
 use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::pins::PinMap;
@@ -69,6 +70,11 @@ const PIT_LDVAL: u32 = match pit_load_value(OSC_HZ, TICK_HZ) {
 const WDOG_TOVAL: u16 = match rtwdog_toval(WATCHDOG_TIMEOUT_US, RTWDOG_LPO_HZ, false) {
     Some(v) => v,
     None => panic!("watchdog timeout"),
+};
+/// RTWDOG window (0.5 ms of the 32 kHz LPO): an earlier refresh resets.
+const WDOG_WIN: u16 = match rtwdog_win(WATCHDOG_WINDOW_US, RTWDOG_LPO_HZ, false) {
+    Some(v) => v,
+    None => panic!("watchdog window"),
 };
 /// Serial1 at 115200 from the 24 MHz UART clock.
 const BAUD: BaudDivisor = match lpuart_divisor(OSC_HZ, 115_200) {
@@ -233,8 +239,9 @@ fn main() -> ! {
         m
     };
 
-    // --- watchdog first: from here on a hang resets the chip.
-    let wdog = Watchdog::start(inst.RTWDOG, WDOG_TOVAL);
+    // --- watchdog first: from here on a hang, a refresh inside the window
+    // or a broken tick sequence resets the chip; the configuration is locked.
+    let wdog = Watchdog::start(inst.RTWDOG, WDOG_TOVAL, WDOG_WIN);
 
     let Some(mut cp) = cortex_m::Peripherals::take() else { halt() };
     let cycles = CycleCounter::enable(&mut cp.DCB, &mut cp.DWT);
@@ -361,6 +368,11 @@ fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static 
     // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
     // readings initialise the observers at the real angles (nothing moves).
     let boot = controller.boot(&mut board, marker, watchdog_reset);
+    // The PIT ran through the self-test with its interrupt masked and has
+    // its flag set: restart its period so the first tick (and its watchdog
+    // refresh) comes a full period after the self-test's last refresh,
+    // outside the watchdog's window.
+    board.tick.restart();
     // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
     // can observe `TICK_CTX` while it is written.
     unsafe { (*addr_of_mut!(TICK_CTX)).write(TickCtx { controller, board }) };

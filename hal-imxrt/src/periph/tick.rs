@@ -47,6 +47,18 @@ impl Tick {
         Self { pit, ldval, count: 0, overruns: 0 }
     }
 
+    /// Restart the period from now: the counter reloads from `LDVAL` and a
+    /// pending flag is cleared, so the first interrupt after this comes one
+    /// full period later (used after the boot self-test, so that the first
+    /// tick's watchdog refresh is a period after the boot's last one and
+    /// not inside the watchdog's window).
+    pub fn restart(&mut self) {
+        let ch = &self.pit.TIMER[0];
+        ral::write_reg!(ral::pit::timer, ch, TCTRL, 0);
+        ral::write_reg!(ral::pit::timer, ch, TFLG, TIF: 1); // w1c
+        ral::write_reg!(ral::pit::timer, ch, TCTRL, TIE: 1, TEN: 1);
+    }
+
     /// Call first in the PIT interrupt handler: clears the flag.
     pub fn on_interrupt(&mut self) -> TickInfo {
         let ch = &self.pit.TIMER[0];

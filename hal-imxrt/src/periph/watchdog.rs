@@ -1,4 +1,6 @@
-//! RTWDOG (WDOG3): resets the chip if the control tick stops feeding it.
+//! RTWDOG (WDOG3): resets the chip if the control tick stops feeding it,
+//! or feeds it too early (window mode), and cannot be reconfigured or
+//! disabled once started (`CS[UPDATE] = 0`: only a chip reset unlocks it).
 //!
 //! After the reset every pad returns to its reset state (input, keeper), so
 //! no STEP edges are produced and the firmware reboots into its unhomed,
@@ -29,26 +31,28 @@ impl core::fmt::Debug for Watchdog {
 }
 
 impl Watchdog {
-    /// Unlock, program `toval` LPO clocks, enable with updates still allowed
-    /// (so a later reconfiguration is possible), and wait for the new
-    /// configuration to take effect. Runs with interrupts masked because the
-    /// unlock window is 255 bus clocks.
-    pub fn start(wd: rtwdog::RTWDOG, toval: u16) -> Self {
+    /// Unlock, program a timeout of `toval` LPO clocks and a window of `win`
+    /// LPO clocks (a refresh while the counter is below `win` resets the
+    /// chip), enable with updates forbidden (`UPDATE = 0`: the configuration
+    /// is locked until the next reset, so no later code can widen, stretch
+    /// or disable it), and wait for the configuration to take effect. Runs
+    /// with interrupts masked because the unlock window is 255 bus clocks.
+    pub fn start(wd: rtwdog::RTWDOG, toval: u16, win: u16) -> Self {
         cortex_m::interrupt::free(|_| {
             ral::write_reg!(ral::rtwdog, wd, CNT, UNLOCK);
             while ral::read_reg!(ral::rtwdog, wd, CS, ULK == 0) {}
             ral::write_reg!(ral::rtwdog, wd, TOVAL, toval as u32);
-            ral::write_reg!(ral::rtwdog, wd, WIN, 0);
+            ral::write_reg!(ral::rtwdog, wd, WIN, win as u32);
             ral::write_reg!(
                 ral::rtwdog,
                 wd,
                 CS,
                 EN: 1,
                 CLK: 1,
-                UPDATE: 1,
+                UPDATE: 0,
                 CMD32EN: 1,
                 PRES: 0,
-                WIN: 0,
+                WIN: 1,
                 INT: 0,
                 TST: 0,
                 DBG: 0,
@@ -60,7 +64,8 @@ impl Watchdog {
         Self { wd }
     }
 
-    /// Refresh. Call from the tick handler only, after the tick's work.
+    /// Refresh. Call from the tick handler only, after the tick's work, and
+    /// only once per tick: a second refresh within the window resets.
     #[inline]
     pub fn feed(&self) {
         ral::write_reg!(ral::rtwdog, self.wd, CNT, REFRESH);

@@ -179,6 +179,22 @@ pub const RTWDOG_LPO_HZ: u32 = 32_000;
 /// 20 ms: 20 missed ticks, well inside the 200 ms stop requirement.
 pub const WATCHDOG_TIMEOUT_US: u32 = 20_000;
 
+/// Watchdog window: a refresh earlier than this after the previous one
+/// resets the chip (RTWDOG window mode). Half the 1 ms tick period: a tick
+/// that runs at more than twice its rate, or a refresh from anywhere but the
+/// end of the tick shortly after the tick's own, is caught; the tick's
+/// refresh, 1 ms apart, stays valid with the LPO up to 50 % slow.
+pub const WATCHDOG_WINDOW_US: u32 = 500;
+
+/// RTWDOG `WIN` for a window of `window_us` (the same clock arithmetic as
+/// [`rtwdog_toval`]).
+pub const fn rtwdog_win(window_us: u32, wdog_clk_hz: u32, prescale_256: bool) -> Option<u16> {
+    rtwdog_toval(window_us, wdog_clk_hz, prescale_256)
+}
+
+// The window opens before the next tick and closes (TOVAL) long after it.
+const _: () = assert!(WATCHDOG_WINDOW_US < 1_000_000 / TICK_HZ && WATCHDOG_WINDOW_US < WATCHDOG_TIMEOUT_US);
+
 // Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
 #[allow(clippy::arithmetic_side_effects)]
@@ -235,5 +251,13 @@ mod tests {
         assert_eq!(rtwdog_toval(WATCHDOG_TIMEOUT_US, RTWDOG_LPO_HZ, false), Some(640));
         assert_eq!(rtwdog_toval(10, RTWDOG_LPO_HZ, false), None);
         assert_eq!(rtwdog_toval(10_000_000, RTWDOG_LPO_HZ, false), None);
+    }
+
+    #[test]
+    fn watchdog_window() {
+        // 0.5 ms of the 32 kHz LPO = 16 counts; a 1 ms tick = 32 counts
+        assert_eq!(rtwdog_win(WATCHDOG_WINDOW_US, RTWDOG_LPO_HZ, false), Some(16));
+        let tick_counts = RTWDOG_LPO_HZ / TICK_HZ;
+        assert!(u32::from(rtwdog_win(WATCHDOG_WINDOW_US, RTWDOG_LPO_HZ, false).unwrap_or(u16::MAX)) < tick_counts);
     }
 }
