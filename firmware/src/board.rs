@@ -30,6 +30,13 @@ pub trait TickBoard {
     /// Boot only (interrupts masked): wait one millisecond, keeping the
     /// watchdog fed. The simulator advances its arm by one millisecond.
     fn boot_wait_ms(&mut self);
+    /// True once the core clock failed its check against the independent
+    /// 32.768 kHz reference (`hal_imxrt::pure::clock_check`; sticky until
+    /// reset). Read once per tick, before the kernel. A board without the
+    /// check (the simulator) never fails it.
+    fn clock_fault(&mut self) -> bool {
+        false
+    }
 }
 
 /// A byte link to the host (USB CDC, Serial1, a pseudo-terminal).

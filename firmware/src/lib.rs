@@ -126,6 +126,10 @@ pub mod code {
     pub const PREVIOUS_PANIC: u8 = 0x80;
     /// The previous run was reset by the watchdog (the tick stopped).
     pub const WATCHDOG_RESET: u8 = 0x81;
+    /// The core clock deviates more than 1 % from the 32.768 kHz reference
+    /// (at boot or in any later one-second window; reported on every tick
+    /// from then on, so `<ENABLE>` stays refused until a reset).
+    pub const CLOCK: u8 = 0x82;
 }
 
 /// Value of the panic marker word kept in non-initialised RAM.

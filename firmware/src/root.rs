@@ -298,6 +298,9 @@ impl Controller<'_> {
             *r = ch.update(*s);
         }
         let limits = self.sample_limits(board);
+        if board.clock_fault() && self.pending_fault.is_none() {
+            self.pending_fault = Some(HardwareFault::SelfTest(crate::code::CLOCK));
+        }
         self.rec.sense = crate::sense(&self.rec.readings, &limits, self.pending_fault.take(), self.link.link_lost());
         self.flow.mark(Step::Estimate);
     }

@@ -4,6 +4,7 @@
 
 use rustc_hash::FxHashMap;
 
+use crate::gpt::Gpt;
 use crate::lpuart::Uart;
 use crate::lpuart::IRQ_LPUART6;
 use crate::pads::{self, wiring, Gpio};
@@ -28,6 +29,7 @@ pub(crate) const IOMUXC: u32 = 0x401F_8000;
 pub(crate) const IOMUXC_GPR: u32 = 0x400A_C000;
 const GPIO: [u32; 4] = [0x401B_8000, 0x401B_C000, 0x401C_0000, 0x401C_4000];
 const PIT: u32 = 0x4008_4000;
+const GPT: [u32; 2] = [0x401E_C000, 0x401F_0000];
 const RTWDOG: u32 = 0x400B_C000;
 const LPUART6: u32 = 0x4019_8000;
 const TMR: [u32; 4] = [0x401D_C000, 0x401E_0000, 0x401E_4000, 0x401E_8000];
@@ -58,6 +60,13 @@ pub struct Board {
     pub pit: Pit,
     /// RTWDOG.
     pub wdog: Wdog,
+    /// GPT1, GPT2.
+    pub gpt: [Gpt; 2],
+    /// The core clock's actual frequency (Hz): CPU cycles per second of
+    /// emulated real time, [`CPU_HZ`] unless a test detunes the PLL
+    /// ([`Board::set_cpu_hz`]). Only the 32.768 kHz reference (GPT on
+    /// `ipg_clk_32k`) counts in real time.
+    pub cpu_hz: f64,
     /// LPUART6.
     pub uart: Uart,
     /// TMR1..4.
@@ -154,6 +163,8 @@ impl Board {
             gpio: Default::default(),
             pit: Pit::default(),
             wdog: Wdog::default(),
+            gpt: Default::default(),
+            cpu_hz: CPU_HZ as f64,
             uart: Uart::default(),
             tmr: Default::default(),
             pwm: Default::default(),
@@ -202,6 +213,7 @@ impl Board {
         self.gpio = Default::default();
         self.pit = Pit::default();
         self.wdog = Wdog::after_boot_rom();
+        self.gpt = Default::default();
         self.uart.reset(self.now);
         self.tmr = Default::default();
         for p in self.pwm.iter_mut() {
@@ -280,6 +292,19 @@ impl Board {
             self.wdog.since += cycles;
         }
         self.cyccnt_off = self.cyccnt_off.wrapping_sub(cycles as u32);
+        for g in self.gpt.iter_mut() {
+            g.debug_halt(cycles);
+        }
+    }
+
+    /// Run the core clock at `hz` from now on (a PLL locked at a wrong
+    /// frequency): the 32.768 kHz reference then advances one count per
+    /// `hz / 32768` CPU cycles.
+    pub fn set_cpu_hz(&mut self, hz: f64) {
+        for g in self.gpt.iter_mut() {
+            g.rebase(self.now, self.cpu_hz);
+        }
+        self.cpu_hz = hz;
     }
 
     /// Record every FlexPWM output's rising-edge times from now on.
@@ -447,6 +472,7 @@ impl Board {
                 return self.pit.read(off, self.now, self.pit_clock_cycles());
             }
             RTWDOG => return self.wdog.read(off, self.now),
+            b if GPT.contains(&b) => return self.gpt[usize::from(b == GPT[1])].read(off, self.now, self.cpu_hz),
             LPUART6 => return self.uart.read(off, self.now),
             SRC if off == 0x8 => return self.srsr,
             _ => {}
@@ -542,6 +568,10 @@ impl Board {
                     self.stop_at = self.now;
                 }
                 return;
+            }
+            b if GPT.contains(&b) => {
+                let (now, hz) = (self.now, self.cpu_hz);
+                return self.gpt[usize::from(b == GPT[1])].write(off, v, now, hz);
             }
             LPUART6 => {
                 let byte = self.uart_byte_cycles();

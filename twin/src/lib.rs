@@ -4,6 +4,7 @@
 
 pub mod board;
 pub mod elf;
+pub mod gpt;
 pub mod lpuart;
 pub mod machine;
 pub mod pads;

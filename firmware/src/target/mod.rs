@@ -27,6 +27,7 @@ use bsp::interrupt;
 use bsp::ral;
 use cortex_m::peripheral::NVIC;
 
+use hal_imxrt::periph::clock_check::ClockCheck;
 use hal_imxrt::periph::cycles::CycleCounter;
 use hal_imxrt::periph::frame_capture::FrameCapture;
 use hal_imxrt::periph::gpio::{Gpios, Limits};
@@ -100,6 +101,7 @@ struct Teensy {
     limits: Limits,
     steps: StepOutputs,
     wdog: Watchdog,
+    clock: ClockCheck,
 }
 
 impl TickBoard for Teensy {
@@ -126,6 +128,10 @@ impl TickBoard for Teensy {
     #[inline(always)]
     fn end_of_tick(&mut self) -> bool {
         self.tick.end_of_handler()
+    }
+    #[inline(always)]
+    fn clock_fault(&mut self) -> bool {
+        self.clock.poll(self.cycles.now())
     }
     fn boot_wait_ms(&mut self) {
         let t = self.cycles.now();
@@ -257,6 +263,9 @@ fn main() -> ! {
     let Ok(limits) = Limits::new(&gpios, &MAP) else { halt() };
     let Ok(capture) = FrameCapture::new(inst.TMR1, inst.TMR3, &MAP) else { halt() };
     let serial1 = Serial1::new(inst.LPUART6, BAUD);
+    // --- the clock check's reference (32.768 kHz crystal): its first window
+    // spans the boot self-test, so the first tick has the boot verdict.
+    let clock = ClockCheck::start(inst.GPT2, &inst.CCM, cycles_now);
     if marker == firmware::PANIC_MARKER {
         // keep signalling the previous panic until the fault is handled
         led_on(&inst.IOMUXC, &unsafe_gpio2());
@@ -267,7 +276,7 @@ fn main() -> ! {
     // `main`'s frame reserved 15-16 KiB of the 16 KiB stack and the first
     // event line overflowed it: found by the register-level twin).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
-    let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog };
+    let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog, clock };
     let (host, boot) = init_root(board, marker, watchdog_reset);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,

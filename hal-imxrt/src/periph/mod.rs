@@ -14,6 +14,7 @@
 //! [`cycles::CycleCounter::enable`], then the drivers; start
 //! [`tick::Tick`] last and feed [`watchdog::Watchdog`] from its handler.
 
+pub mod clock_check;
 pub mod clocks;
 pub mod cycles;
 pub mod frame_capture;

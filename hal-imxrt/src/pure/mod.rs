@@ -5,6 +5,7 @@
 
 pub mod channel;
 pub mod clock;
+pub mod clock_check;
 pub mod debounce;
 pub mod encoder;
 pub mod frame;
