@@ -87,10 +87,12 @@ if [ "${QUICK:-0}" != "1" ]; then
     # The kernel carries continuous state (set-point
     # velocities, following-error paths, homing ramps) and the full model no
     # longer finishes: it is explored breadth first for 150 s (a bounded
-    # exploration: sampled evidence); the reduced configurations (Kernel<Fx>
-    # small, Kernel<f32> tiny) run to completion (model-checked). Any
-    # property violated in an explored state fails the step.
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full bounded 150 s, small and tiny to completion)"
+    # exploration: sampled evidence; it must still reach every 'sometimes'
+    # property); the reduced configurations (Kernel<Fx> small and homing,
+    # Kernel<f32> tiny) run to completion (model-checked). Any property
+    # violated in an explored state fails the step. The mutants: one per
+    # model-checked requirement.
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full bounded 150 s, small, homing and tiny to completion; 15 kernel mutants)"
     cargo run -p model --release --locked -- --bounded 150
     proofs/model/mutants.sh
 

@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
-# Mutation tests of the model check: the model must fail when the kernel
-# ignores a limit switch (SR-10), an encoder loss (SR-11) or a hardware
-# fault (SR-21). Each mutant: copy the workspace to a temporary directory,
-# patch one kernel line (failing loudly if the line is not found, so a
-# rewrite of the kernel cannot make this test pass vacuously), run the model
-# on its small configuration and require a violation of the named property.
+# Mutation tests of the model check: for every requirement SAFETY.md calls
+# model-checked, a kernel that breaks that requirement makes the model fail
+# the property its row names. Each mutant: copy the workspace to a temporary
+# directory, patch one kernel line (failing loudly if the line is not found,
+# so a rewrite of the kernel cannot make this test pass vacuously), run the
+# model on a configuration that finishes (small, or homing for the per-joint
+# runs and arrival orders) and require a violation of the named property
+# (`--expect-violation`: the run stops at the first one). The test
+# `every_model_checked_row_has_a_property_and_a_mutant` (proofs/model)
+# checks that each such row names its property and has a mutant here.
 #
 #   proofs/model/mutants.sh
 #
@@ -19,10 +23,11 @@ export CARGO_TARGET_DIR="$ROOT/target/model-mutants"
 export CARGO_PROFILE_RELEASE_LTO=false CARGO_PROFILE_RELEASE_CODEGEN_UNITS=16 CARGO_PROFILE_RELEASE_DEBUG=0
 
 failed=0
-# mutant NAME FILE LINE REPLACEMENT PROPERTY: LINE (exact, whole line) in
-# FILE becomes REPLACEMENT; the model must report PROPERTY violated.
+# mutant NAME FILE LINE REPLACEMENT CONFIG PROPERTY: LINE (exact, whole
+# line) in FILE becomes REPLACEMENT; the model on CONFIG must report
+# PROPERTY violated.
 mutant() {
-    local name=$1 file=$2 line=$3 repl=$4 prop=$5
+    local name=$1 file=$2 line=$3 repl=$4 config=$5 prop=$6
     local dir="$TMP/$name"
     mkdir -p "$dir"
     # The working tree (not only what is committed), without build outputs.
@@ -41,7 +46,7 @@ mutant() {
     local start
     start=$(date +%s)
     echo "==> mutant $name ($file), expecting a violation of $prop"
-    if (cd "$dir" && cargo run -q -p model --release --locked -- --variant fx --config small --expect-violation "$prop"); then
+    if (cd "$dir" && cargo run -q -p model --release --locked -- --variant fx --config "$config" --expect-violation "$prop"); then
         echo "mutant $name: killed by the model ($prop violated) in $(( $(date +%s) - start )) s"
     else
         echo "mutant $name: SURVIVED (no violation of $prop) in $(( $(date +%s) - start )) s" >&2
@@ -50,17 +55,65 @@ mutant() {
     rm -rf "$dir"
 }
 
+mutant estimate-not-at-first-reading kernel/src/kernel/axis.rs \
+    '        self.obs = AlphaBeta::at(self.measured(p));' \
+    '        self.obs = AlphaBeta::at(self.measured(p).plus(S::from_f32(0.001)));' \
+    small 'SR-1: an estimate does not start at rest at its first reading'
+mutant fault-zeroes-one-axis kernel/src/kernel/supervisor.rs \
+    '            *out = [S::ZERO; AXES];' \
+    '            out[0] = S::ZERO;' \
+    small 'SR-4: output in the tick a fault is detected'
+mutant second-fault-overwrites-the-first kernel/src/kernel/supervisor.rs \
+    '            if self.mode != Mode::Fault {' \
+    '            if true {' \
+    small "SR-5: a latched fault's reason changed"
+mutant enable-ignores-a-present-cause kernel/src/kernel/intake.rs \
+    '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)) {' \
+    '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)).filter(|_| false) {' \
+    small 'SR-6: enable cleared a latch while a cause was present'
+mutant ramp-latches-a-tick-late kernel/src/kernel/supervisor.rs \
+    '                if k >= self.p.stop_ticks && then_home == 0 {' \
+    '                if k > self.p.stop_ticks && then_home == 0 {' \
+    small 'SR-7: the ramp did not end in SoftEstop at k = N'
+mutant enable-arms-the-timeout kernel/src/kernel/intake.rs \
+    '        self.transition(Edge::Enable);' \
+    '        self.transition(Edge::Enable); self.armed = true;' \
+    small 'SR-8: the timeout armed by anything but an accepted motion'
 mutant ignore-limit-switch kernel/src/kernel/supervisor.rs \
     '            let pressed = limits & bit(i) != 0;' \
     '            let pressed = limits & bit(i) != 0 && i > AXES;' \
-    SR-10
+    small 'SR-10: a limit switch did not fault in the same tick'
 mutant ignore-encoder-loss kernel/src/kernel/axis.rs \
     '                    if self.invalid > k.invalid_limit {' \
     '                    if self.invalid > k.invalid_limit && axis > 5 {' \
-    SR-11
+    small 'SR-11: the encoder fault did not come in the same tick'
+mutant no-homing-dependencies kernel/src/kernel/homing_seq.rs \
+    '            needs |= g;' \
+    '            needs |= 0;' \
+    homing 'SR-13: an axis moved in homing before its dependencies were homed'
+mutant rehoming-keeps-homed kernel/src/kernel/homing_seq.rs \
+    '        self.homed &= !mask;' \
+    '        self.homed &= !0;' \
+    small 'SR-14: a re-homed axis still counted homed when its run started'
+mutant motion-accepted-unhomed kernel/src/kernel/supervisor.rs \
+    '            Mode::Unhomed => Some(Reject::NotHomed),' \
+    '            Mode::Unhomed => None,' \
+    small 'SR-15: motion accepted outside Operational'
+mutant waiting-axis-creeps kernel/src/kernel/homing_seq.rs \
+    '            if group & bit(i) == 0 {' \
+    '            if group & bit(i) == 0 && { *o = S::from_f32(0.001); true } {' \
+    small 'SR-16: an axis not in a moving homing phase output non-zero'
+mutant limits-not-checked kernel/src/kernel/intake.rs \
+    '        self.p.limits.check(t)' \
+    '        self.p.limits.check(t).or(Ok(()))' \
+    small 'SR-17: an out-of-limits target accepted'
 mutant ignore-hardware-fault kernel/src/kernel.rs \
     '        let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware);' \
     '        let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware).filter(|_| false);' \
-    SR-21
+    small 'SR-21: a hardware fault did not fault in the same tick'
+mutant phases-kept-after-homing kernel/src/kernel/homing_seq.rs \
+    '            ax.homing.reset(false);' \
+    '            let _ = ax;' \
+    small "SR-32: a state outside the kernel's state invariant (Kernel::invariant)"
 
 exit "$failed"

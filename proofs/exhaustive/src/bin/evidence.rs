@@ -10,6 +10,12 @@
 //!   here" cell: `exhaustive`, `enumerated slice`, `model-checked`, `SMT`,
 //!   `sampled (shim ...)`, `sampled (bounded model exploration ...)`) has a
 //!   record of that kind for that requirement from this run;
+//! - a row that claims the model names the model properties that check it
+//!   (`property "NAME"`, each tagged with the row's requirement: `SR-5: ...`
+//!   or `SR-1/4/5: ...`), and each named property backs a run of every
+//!   model kind the row claims (a run lists the properties that held and
+//!   applied: a transition check whose antecedent never held backs
+//!   nothing);
 //! - every record of this run for a requirement (a sweep, an SMT proof) is
 //!   claimed by its row with the record's own kind (a slice is never
 //!   printed as exhaustive, a bounded exploration never as model-checked);
@@ -101,8 +107,8 @@ struct Run {
     shim: BTreeMap<String, (String, u64)>,
     /// requirement -> sweep and SMT records.
     by_req: BTreeMap<String, Vec<(Source, Record)>>,
-    /// Model runs.
-    model: Vec<Record>,
+    /// Model runs, each with the properties that back it.
+    model: Vec<(Record, Vec<String>)>,
 }
 
 impl Run {
@@ -146,12 +152,14 @@ impl Run {
         for l in model_tsv.lines() {
             let c: Vec<&str> = l.split('\t').collect();
             if let [_, kind, n, result, what, ..] = c[..] {
-                run.model.push(Record {
+                let props = c.get(5).map_or(Vec::new(), |p| p.split('|').map(str::to_string).collect());
+                let rec = Record {
                     kind: kind.into(),
                     cases: n.parse().unwrap_or(0),
                     result: result.into(),
                     detail: what.into(),
-                });
+                };
+                run.model.push((rec, props));
             }
         }
         run
@@ -213,34 +221,72 @@ fn check_row(id: &str, kani: &str, executed: &str, run: &Run) -> (Vec<Record>, V
         }
     }
 
-    if claims.contains(&Source::ModelBounded) || claims.contains(&Source::ModelChecked) {
-        for m in &run.model {
-            let detail = if m.kind == "model-checked" {
-                format!("every reachable state: {}", m.detail)
-            } else {
-                m.detail.clone()
-            };
-            rows.push(Record { detail, ..m.clone() });
+    let (claims_checked, claims_bounded) =
+        (claims.contains(&Source::ModelChecked), claims.contains(&Source::ModelBounded));
+    if claims_checked || claims_bounded {
+        let named = model_properties(executed);
+        if named.is_empty() {
+            missing.push(format!("{id}: claims the model, but names no model property (property \"NAME\")"));
         }
-        if run.model.is_empty() {
-            missing.push(format!("{id}: claims the model, but it did not run"));
+        for p in &named {
+            if !property_tags(p).iter().any(|t| t == id) {
+                missing.push(format!("{id}: names the model property \"{p}\", which is not tagged with {id}"));
+            }
         }
-        let checked = run.model.iter().any(|m| m.kind == "model-checked");
-        let bounded = run.model.iter().any(|m| m.kind != "model-checked");
-        if claims.contains(&Source::ModelChecked) && !checked {
-            missing.push(format!("{id}: claims model-checked, but no model run explored every reachable state"));
+        let checked = |m: &Record| m.kind == "model-checked";
+        for (want, kind) in [(claims_checked, true), (claims_bounded, false)] {
+            if !want {
+                continue;
+            }
+            let label = if kind { "model-checked" } else { "a bounded model exploration" };
+            let runs: Vec<&(Record, Vec<String>)> = run.model.iter().filter(|(m, _)| checked(m) == kind).collect();
+            if runs.is_empty() {
+                missing.push(format!("{id}: claims {label}, but no such model run ran"));
+                continue;
+            }
+            for p in &named {
+                let backing: Vec<&Record> =
+                    runs.iter().filter(|(_, props)| props.iter().any(|q| q == p)).map(|(m, _)| m).collect();
+                if backing.is_empty() {
+                    missing.push(format!("{id}: claims {label} by \"{p}\", but no such run checked that property"));
+                }
+                for m in backing {
+                    let detail = if kind {
+                        format!("every reachable state: {}: \"{p}\"", m.detail)
+                    } else {
+                        format!("{}: \"{p}\"", m.detail)
+                    };
+                    rows.push(Record { detail, ..m.clone() });
+                }
+            }
         }
-        if claims.contains(&Source::ModelBounded) && !bounded {
-            missing.push(format!("{id}: claims a bounded model exploration, but none ran"));
-        }
-        if checked && !claims.contains(&Source::ModelChecked) {
-            unclaimed.push(format!("{id}: a model run explored every reachable state, but its row does not say so"));
-        }
-        if bounded && !claims.contains(&Source::ModelBounded) {
-            unclaimed.push(format!("{id}: a model run was bounded, but its row does not say so"));
+        // A run of the other kind that checked a property of this
+        // requirement must be claimed too.
+        for (m, props) in &run.model {
+            let tagged = props.iter().any(|p| property_tags(p).iter().any(|t| t == id));
+            if tagged && checked(m) && !claims_checked {
+                unclaimed
+                    .push(format!("{id}: a model run explored every reachable state, but its row does not say so"));
+            }
+            if tagged && !checked(m) && !claims_bounded {
+                unclaimed.push(format!("{id}: a model run was bounded, but its row does not say so"));
+            }
         }
     }
     (rows, missing, unclaimed)
+}
+
+/// The model properties a cell names: every `property "NAME"`.
+fn model_properties(cell: &str) -> Vec<String> {
+    cell.split("property \"").skip(1).filter_map(|r| r.split('"').next()).map(str::to_string).collect()
+}
+
+/// The requirements a model property is tagged with: `SR-1/4/5: ...` ->
+/// SR-1, SR-4, SR-5.
+fn property_tags(name: &str) -> Vec<String> {
+    let Some((head, _)) = name.split_once(':') else { return Vec::new() };
+    let Some(nums) = head.strip_prefix("SR-") else { return Vec::new() };
+    nums.split('/').map(|n| format!("SR-{n}")).collect()
 }
 
 fn main() {
@@ -325,7 +371,8 @@ mod tests {
         Run::parse(
             "proofs::a::h_f32\tsampled\t2000\n",
             "SR-12\texhaustive\t16777216\tholds\tunwrap pairs\nSR-2/3\tslice\t4294967296\tholds\tcontrol law\n",
-            "model\tsampled\t8000000\tholds\tbounded BFS\n",
+            "model\tsampled\t8000000\tholds\tbounded BFS\tSR-2/3: non-finite|SR-4: fault tick output\n\
+             model\tmodel-checked\t3000000\tholds\tsmall\tSR-4: fault tick output|SR-5: latch left\n",
             "SR-2\tSMT\t5\tproved\tsaturate f32\n",
         )
     }
@@ -343,7 +390,7 @@ mod tests {
         let (_, m, u) = check_row(
             "SR-2",
             "`h_f32`",
-            "enumerated slices (x); SMT (saturate); sampled (shim); sampled (bounded model exploration)",
+            "enumerated slices (x); SMT (saturate); sampled (shim); sampled (bounded model exploration: property \"SR-2/3: non-finite\")",
             &r,
         );
         assert!(m.is_empty() && u.is_empty(), "{m:?} {u:?}");
@@ -359,8 +406,46 @@ mod tests {
 
     #[test]
     fn a_bounded_exploration_claimed_as_model_checked_is_refused() {
-        let (_, m, _) = check_row("SR-4", "", "model-checked (every state)", &run());
+        // SR-2's property ran only in the bounded exploration.
+        let (_, m, _) = check_row("SR-2", "", "model-checked (property \"SR-2/3: non-finite\")", &run());
         assert!(m.iter().any(|s| s.contains("model-checked")), "{m:?}");
+    }
+
+    #[test]
+    fn a_model_claim_names_a_property_of_its_requirement_that_ran() {
+        let r = run();
+        let (rows, m, u) = check_row(
+            "SR-4",
+            "",
+            "sampled (bounded model exploration); model-checked (property \"SR-4: fault tick output\")",
+            &r,
+        );
+        assert!(m.is_empty() && u.is_empty() && rows.len() == 2, "{m:?} {u:?} {rows:?}");
+        // No property named.
+        let (_, m, _) = check_row("SR-5", "", "model-checked (every reachable state)", &r);
+        assert!(m.iter().any(|s| s.contains("names no model property")), "{m:?}");
+        // A property of another requirement.
+        let (_, m, _) = check_row("SR-6", "", "model-checked (property \"SR-5: latch left\")", &r);
+        assert!(m.iter().any(|s| s.contains("not tagged with SR-6")), "{m:?}");
+        // A property no run checked (never exercised, or not in the model).
+        let (_, m, _) = check_row("SR-5", "", "model-checked (property \"SR-5: reason changed\")", &r);
+        assert!(m.iter().any(|s| s.contains("no such run checked")), "{m:?}");
+        // A complete run checked SR-4's property: a row saying only
+        // "bounded" hides it.
+        let (_, _, u) =
+            check_row("SR-4", "", "sampled (bounded model exploration: property \"SR-4: fault tick output\")", &r);
+        assert!(u.iter().any(|s| s.contains("every reachable state")), "{u:?}");
+    }
+
+    #[test]
+    fn property_tags_are_the_requirements_before_the_colon() {
+        assert_eq!(property_tags("SR-1/4/5: output"), vec!["SR-1", "SR-4", "SR-5"]);
+        assert_eq!(property_tags("SR-32: invariant"), vec!["SR-32"]);
+        assert!(property_tags("operational").is_empty());
+        assert_eq!(
+            model_properties("model-checked (property \"SR-5: a\", property \"SR-5: b\"; x)"),
+            vec!["SR-5: a", "SR-5: b"]
+        );
     }
 
     #[test]
