@@ -120,7 +120,7 @@ pub fn all() -> Vec<Proof> {
         name: "observer step: between prediction and measurement (+-1e-5, plausible state)",
         variant: SymF32::VARIANT,
         joints: Vec::new(),
-        extended: true,
+        extended: false,
         blind: false,
         build: |_| props::observer_between::<SymF32>(1e-5, false),
     });
