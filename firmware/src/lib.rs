@@ -130,7 +130,18 @@ pub mod code {
     /// (at boot or in any later one-second window; reported on every tick
     /// from then on, so `<ENABLE>` stays refused until a reset).
     pub const CLOCK: u8 = 0x82;
+    /// The boot RAM test (March C-) found a failing cell in the memory of
+    /// the tick's and the main loop's state: the image does not start (no
+    /// tick; the line is written once per boot, then the watchdog resets).
+    pub const RAM: u8 = 0x83;
 }
+
+/// The line the image writes on Serial1 when the boot RAM test fails, before
+/// any of the root exists: the kernel's own wording of
+/// `Event::Fault(Hardware(SelfTest(code::RAM)))` (a test checks it against
+/// `protocol::report::event_line`; a constant here keeps the line
+/// formatter out of the boot path, 6.7 KB of flash when it was called).
+pub const RAM_FAULT_LINE: &str = "FAULT HARDWARE SELF_TEST code=131\n";
 
 /// Value of the panic marker word kept in non-initialised RAM.
 pub const PANIC_MARKER: u32 = 0x5041_4E43; // "PANC"
@@ -274,6 +285,14 @@ mod tests {
         assert_eq!(cycles_to_us(600), 1);
         assert_eq!(cycles_to_us(600_000), 1000);
         assert_eq!(cycles_to_us(u32::MAX), 7_158_278);
+    }
+
+    #[test]
+    fn the_ram_fault_line_is_the_kernel_event_line() {
+        let mut line = protocol::Line::new();
+        let e = kernel::Event::Fault(kernel::FaultReason::Hardware(HardwareFault::SelfTest(code::RAM)));
+        protocol::report::event_line(&mut line, &e).unwrap();
+        assert_eq!(line.as_str(), RAM_FAULT_LINE);
     }
 
     #[test]

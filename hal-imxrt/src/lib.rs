@@ -13,6 +13,8 @@
 //!   (decoder + tracker: one encoder input as the firmware ships it),
 //!   [`pure::mt6816`] (the sensor's frame, clock and counts per revolution),
 //!   [`pure::clock`] (PIT load, QuadTimer prescaler, DIR settle, watchdog),
+//!   [`pure::clock_check`] (the core clock against the 32.768 kHz crystal),
+//!   [`pure::march`] (the March C- RAM test),
 //!   [`pure::uart`] (LPUART OSR/SBR search), [`pure::step`] (step rate ->
 //!   FlexPWM period/prescaler), [`pure::pins`] (Teensy 4.1 pin database and
 //!   the compile-time-checked pin map), [`pure::debounce`] (limit switches).

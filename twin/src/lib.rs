@@ -13,6 +13,7 @@ pub mod plant;
 pub mod pty;
 pub mod pwm;
 pub mod qtimer;
+pub mod ram_fault;
 pub mod scenario;
 pub mod wdog;
 

@@ -11,10 +11,13 @@
 //! `unsafe` appears only here, each with a `// SAFETY:` comment: taking the
 //! peripheral instances once, the tick context shared between `main` (init,
 //! before the interrupt is unmasked) and the PIT handler (afterwards), the
-//! queue link, the panic marker and the panic handler's stolen registers.
+//! queue link, the panic marker and the panic handler's stolen registers
+//! (and, in `ram_test`, the boot RAM test's word accesses to the statics it
+//! tests before they are built).
 
 mod logger;
 mod port;
+mod ram_test;
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
@@ -262,7 +265,7 @@ fn main() -> ! {
     };
     let Ok(limits) = Limits::new(&gpios, &MAP) else { halt() };
     let Ok(capture) = FrameCapture::new(inst.TMR1, inst.TMR3, &MAP) else { halt() };
-    let serial1 = Serial1::new(inst.LPUART6, BAUD);
+    let mut serial1 = Serial1::new(inst.LPUART6, BAUD);
     // --- the clock check's reference (32.768 kHz crystal): its first window
     // spans the boot self-test, so the first tick has the boot verdict.
     let clock = ClockCheck::start(inst.GPT2, &inst.CCM, cycles_now);
@@ -277,7 +280,7 @@ fn main() -> ! {
     // event line overflowed it: found by the register-level twin).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
     let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog, clock };
-    let (host, boot) = init_root(board, marker, watchdog_reset);
+    let (host, boot) = init_root(board, marker, watchdog_reset, &mut serial1, &inst.IOMUXC);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
     // which is initialised above. Highest priority (0); Serial1 and USB
@@ -368,7 +371,13 @@ impl MsClock {
 /// are released before the main loop starts. Called once, before the PIT
 /// interrupt is unmasked.
 #[inline(never)]
-fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static mut Host<'static>, BootReport) {
+fn init_root(
+    mut board: Teensy,
+    marker: u32,
+    watchdog_reset: bool,
+    serial1: &mut Serial1,
+    io: &ral::iomuxc::RegisterBlock,
+) -> (&'static mut Host<'static>, BootReport) {
     // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
     // two ends go to the tick (controller) and the main loop (host).
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
@@ -382,6 +391,14 @@ fn init_root(mut board: Teensy, marker: u32, watchdog_reset: bool) -> (&'static 
     // refresh) comes a full period after the self-test's last refresh,
     // outside the watchdog's window.
     board.tick.restart();
+    // RAM test (March C-) of the memory the tick's and the main loop's state
+    // will occupy, before it is built there. Here, inside the first tick's
+    // period, it moves neither the self-test's samples nor the first tick
+    // (the encoder frames' phase at the kernel's first reading is the same
+    // as without it; see SAFETY.md section 8 on fast MT6816s).
+    if ram_test::run().is_err() {
+        ram_test::refuse(serial1, io);
+    }
     // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
     // can observe `TICK_CTX` while it is written.
     unsafe { (*addr_of_mut!(TICK_CTX)).write(TickCtx { controller, board }) };

@@ -9,6 +9,7 @@ pub mod clock_check;
 pub mod debounce;
 pub mod encoder;
 pub mod frame;
+pub mod march;
 pub mod mt6816;
 pub mod pins;
 pub mod step;
