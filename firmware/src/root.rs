@@ -440,7 +440,11 @@ impl Host<'_> {
             self.was_open = open;
         }
         for _ in 0..INPUT_BUDGET {
-            if !self.tx.would_admit(RESPONSE_ROOM, Class::Report) {
+            // Input waits in the port while an answer might not fit, or a
+            // command might not: a burst of frames is taken whole, in
+            // order, as the tick frees the queue (USB holds the host back
+            // meanwhile), and `QUEUE_FULL` means a frame really was lost.
+            if !self.tx.would_admit(RESPONSE_ROOM, Class::Report) || !self.link.has_room() {
                 break;
             }
             let Some(b) = port.read() else { break };

@@ -132,6 +132,12 @@ impl<S: Scalar> Kernel<S> {
         self.axes.iter().any(|a| !a.interp.at_rest()) || self.last_out.iter().any(|v| v.abs() > hold)
     }
 
+    /// True when every set-point is at rest on its last accepted target:
+    /// what was asked has arrived (the command timeout then holds, SR-29).
+    pub fn setpoints_at_rest(&self) -> bool {
+        self.axes.iter().all(|a| a.interp.at_rest())
+    }
+
     /// The outputs returned by the last tick.
     pub fn last_output(&self) -> [S; AXES] {
         self.last_out

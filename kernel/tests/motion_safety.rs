@@ -207,10 +207,10 @@ fn home_while_moving_stops_first<S: Scalar>() {
 fn home_in_a_latched_state_is_refused<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
-    p[0] += 0.05;
+    p[0] += 0.3;
     r.motion(p);
     r.run(5);
-    // Interrupted while moving: latched.
+    // Interrupted while its set-point still travels: latched.
     r.run_until(1_000, |o| o.status.state == State::SoftEstop).expect("latches");
     let out = r.tick(Some(Request::Home));
     assert!(out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Home, reason: Reject::Latched }));
@@ -368,14 +368,22 @@ fn runs_at_500_hz_and_2_khz<S: Scalar>() {
         // 0.6 rad at 3 rad/s and 24 rad/s^2 (the set-points' share of J1's
         // 30): 0.325 s, whatever the rate.
         assert!((315.0..=340.0).contains(&arrive_ms), "{hz} Hz: {arrive_ms} ms");
-        // An interrupted stream latches 100 ms after its last sample.
+        // A stream that stops holds 100 ms after its last sample (its
+        // set-point at rest on the last target by then).
         let mut q = r.plant.q;
         for _ in 0..10 {
             q[0] -= 0.02;
             r.motion(q);
             r.run(hz / 100 - 1);
         }
-        let t = r.run_until(hz, |o| o.status.state == State::Stopping).expect("soft stop") + hz / 100 - 1;
+        let t = r.run_until(hz, |o| o.events.iter().any(|e| *e == Event::Holding)).expect("holds") + hz / 100 - 1;
+        let t_ms = f64::from(t) * 1000.0 / f64::from(hz);
+        assert!((95.0..=110.0).contains(&t_ms), "{hz} Hz: held after {t_ms} ms");
+        // One far sample (its set-point still travelling at the timeout)
+        // latches 100 ms after it.
+        q[0] -= 0.3;
+        r.motion(q);
+        let t = r.run_until(hz, |o| o.status.state == State::Stopping).expect("soft stop");
         let t_ms = f64::from(t) * 1000.0 / f64::from(hz);
         assert!((95.0..=110.0).contains(&t_ms), "{hz} Hz: soft stop after {t_ms} ms");
     }

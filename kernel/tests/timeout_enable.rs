@@ -96,7 +96,9 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
 fn enable_after_soft_stop_resyncs_without_a_jump<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
-    p[0] += 0.05;
+    // Far enough that the set-point still travels at the timeout (a
+    // set-point at rest on its target holds: SR-29).
+    p[0] += 0.3;
     r.motion(p);
     r.run_until(1000, |o| o.status.state == State::SoftEstop).unwrap();
     let out = r.enable();

@@ -137,8 +137,9 @@ pub(crate) struct TickFacts<'a, S> {
     /// last one), when known.
     pub old_target: Option<[S; AXES]>,
     pub target_now: Option<[S; AXES]>,
-    /// A cause of SR-6 in this tick's sensors: a hardware fault, a pressed
-    /// switch, an encoder without a count.
+    /// A cause of SR-6 in this tick's sensors: a hardware fault, a homed
+    /// joint's pressed switch (an unhomed joint's is its homing input), an
+    /// encoder without a count.
     pub sensed_cause: bool,
     /// SR-7, SR-29, SR-31: moving or at rest, judged from the last tick
     /// (the kernel decides before this tick's outputs): set-points at rest
@@ -146,6 +147,10 @@ pub(crate) struct TickFacts<'a, S> {
     /// below the holding speed. Unknown without the target (then neither).
     pub surely_still: bool,
     pub surely_moving: bool,
+    /// SR-29: the set-points alone, at rest on their targets or not (what
+    /// was asked decides hold or latch, not the outputs' residual).
+    pub sp_still: bool,
+    pub sp_moving: bool,
 }
 
 impl<'a, S: Scalar> TickFacts<'a, S> {
@@ -187,10 +192,12 @@ impl<'a, S: Scalar> TickFacts<'a, S> {
             old_target: mon.target,
             target_now: None,
             sensed_cause: sense.hardware_fault.is_some()
-                || sense.limits & ALL != 0
+                || sense.limits & out.status.homed & ALL != 0
                 || !sense.encoders.iter().all(is_count),
             surely_still: false,
             surely_moving: false,
+            sp_still: false,
+            sp_moving: false,
         };
         for e in out.events.iter() {
             match e {
@@ -223,8 +230,10 @@ impl<'a, S: Scalar> TickFacts<'a, S> {
         let out_over = mon.prev_out.iter().any(|v| f(*v).abs() > HOLD_SPEED * 1.001);
         let out_under = mon.prev_out.iter().all(|v| f(*v).abs() <= HOLD_SPEED * 0.999);
         let at_target = t.target_now.map(|m| m == mon.prev_setpoint);
-        t.surely_still = at_target == Some(true) && mon.prev_sp_static == Some(true) && out_under;
-        t.surely_moving = out_over || at_target == Some(false) || mon.prev_sp_static == Some(false);
+        t.sp_still = at_target == Some(true) && mon.prev_sp_static == Some(true);
+        t.sp_moving = at_target == Some(false) || mon.prev_sp_static == Some(false);
+        t.surely_still = t.sp_still && out_under;
+        t.surely_moving = out_over || t.sp_moving;
         t
     }
 

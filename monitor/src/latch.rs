@@ -126,7 +126,9 @@ impl<S: Scalar> Monitor<S> {
                             FaultReason::EncoderLost { axis } => {
                                 !t.sense.encoders.get(usize::from(axis)).is_some_and(is_count)
                             }
-                            FaultReason::LimitSwitch { axis } => t.sense.limits & bit(usize::from(axis)) != 0,
+                            FaultReason::LimitSwitch { axis } => {
+                                t.sense.limits & out.status.homed & bit(usize::from(axis)) != 0
+                            }
                             FaultReason::Hardware(_) => t.sense.hardware_fault.is_some(),
                             _ => true,
                         };

@@ -32,11 +32,11 @@
 //! | SR-2 | every output finite and within the joint's max velocity; step rate within the step generator's limit and the joint's speed, with the velocity's sign |
 //! | SR-4 | zero output on every axis in the tick a fault is raised |
 //! | SR-5 | Fault state iff a fault is latched; at most one fault event per tick; the first reason kept; Fault and SoftEstop left only by an accepted enable; `<HOME>` in SoftEstop or Fault refused (`Reject::Latched` for `<HOME>`) |
-//! | SR-6 | enable refused while a cause is in the sensors or outside Fault/SoftEstop; after enable set-points equal positions, timeout disarmed, no speed above vmax, no fault in the same tick; with [`PlantFacts::quiet_ticks`], a refusal's cause is real |
+//! | SR-6 | [`interactions`]: after the arm has rested, an enable in a latched state with no physical cause is accepted (no lock-up); enable refused while a cause is in the sensors (a homed joint's switch) or outside Fault/SoftEstop; after enable set-points equal positions, timeout disarmed, no speed above vmax, no fault in the same tick; with [`PlantFacts::quiet_ticks`], a refusal's cause is real |
 //! | SR-7 | a timeout stop only at the timeout; Stopping entered from Operational by a timeout stop or `HomingAfterStop` (or by a lost link, SR-31); the ramp never speeds up or reverses, steps at most vmax/N, ends in exactly N ticks at zero with `Stopped` and latches, or, after `<HOME>` while moving, starts homing (`HomingStarted`, the only Stopping -> Homing edge); `<HOME>` while moving stops first, at rest it does not |
 //! | SR-8 | the timeout is armed only by an accepted motion command, by every accepted stream sample, never by a go-to; disarmed by homing (and a `<HOME>` while moving) and enable |
 //! | SR-9 | an estimate above the runaway threshold is a fault |
-//! | SR-10 | a pressed switch in Operational, Stopping or SoftEstop, or on a homed axis at rest during homing, is a fault |
+//! | SR-10 | a pressed switch of a homed joint in Operational, Stopping or SoftEstop, or on a homed axis at rest during homing, is a fault (an unhomed joint's switch is its homing input); [`interactions`]: no latch without a physical cause, a switch closed in half of 6 raw samples reaches the limit mask |
 //! | SR-11 | more than `encoder_invalid_limit` invalid samples in a row fault, and that joint is not homed until homed again |
 //! | SR-13 | in homing no axis moves before every axis of the earlier groups is homed and still; per-joint homing accepted only with its dependencies homed |
 //! | SR-14 | with [`PlantFacts::clean_homing`], a finished homing run zeroes each axis at its true angle |
@@ -48,7 +48,7 @@
 //! | SR-25 | in Operational and Homing the output changes by at most max_acceleration/tick_hz per tick (in Homing a stop to zero at the axis's switch may be immediate) |
 //! | SR-27 | in Operational the set-point velocity, computed from consecutive set-points, changes by at most max_acceleration/tick_hz plus the landing allowance and rounding (see `Monitor::check_setpoints`); a set-point never crosses its target and stays once there; set-points within the joint limits (or the resync point) |
 //! | SR-28 | homing travel per phase within `homing.max_travel` (fast seek) or `JointConfig::homing_phase_travel()`, else a fault by then; with [`PlantFacts`], no `FollowingError` unless something was injected since the last resync, and a stalled or reversed joint whose set-point stays beyond the bound (+ [`FE_LIVENESS_SLACK`]) from its true angle faults within the bound's time (+ slack) |
-//! | SR-29 | at the command timeout exactly one of: a timeout stop, `Holding`, a link-loss stop; `Holding` never while a set-point or an output above [`HOLD_SPEED`] moves, and it stays Operational, disarmed; no timeout stop of an arm at rest at its targets |
+//! | SR-29 | at the command timeout exactly one of: a timeout stop, `Holding`, a link-loss stop; `Holding` never while a set-point moves, and it stays Operational, disarmed; no timeout stop with every set-point at rest on its target, whatever the outputs' residual |
 //! | SR-30 | a stream sample is accepted only within [`max_jump`]'s high bound (+ [`JUMP_SLACK`]) of the set-point or the previous target on every axis, and refused (`TargetJump`) only beyond its low bound; never a go-to |
 //! | SR-31 | a lost link while moving, homing, or stopping to home starts a soft stop (`StopCause::LinkLost`) at once, and only then; an interrupted homing run is reported failed (H3) |
 //!
@@ -81,6 +81,7 @@
     )
 )]
 
+pub mod interactions;
 #[cfg(any(test, feature = "plant"))]
 pub mod plant;
 
@@ -234,6 +235,8 @@ pub struct Monitor<S> {
     phase_travel: [f64; AXES],
     /// Coverage counters.
     pub stats: Stats,
+    /// Lock-up and latches without a cause (SR-6, SR-10, SR-19).
+    interactions: interactions::Interactions,
 }
 
 impl<S: Scalar> Monitor<S> {
@@ -277,6 +280,7 @@ impl<S: Scalar> Monitor<S> {
             acc_per_tick: cfg.joints.map(|j| f64::from(j.max_acceleration) / hz),
             fast_seek_travel: cfg.joints.map(|j| f64::from(j.homing.max_travel)),
             phase_travel: cfg.joints.map(|j| f64::from(j.homing_phase_travel())),
+            interactions: interactions::Interactions::new(cfg),
             stats: Stats::default(),
         }
     }
@@ -296,6 +300,9 @@ impl<S: Scalar> Monitor<S> {
         plant: Option<&PlantFacts>,
     ) -> Checked {
         let r = self.check_inner(sense, sent, out, phases, plant);
+        // Where modes meet (`interactions`): checked every tick too.
+        let enable_sent = sent.is_some_and(|s| s.kind() == kernel::RequestKind::Enable);
+        let r = r.and(self.interactions.check(sense, enable_sent, out));
         // Memory for the next tick.
         self.prev_out = out.act.velocity;
         self.prev_state = out.status.state;

@@ -24,13 +24,14 @@ impl<S: Scalar> Monitor<S> {
             }
         }
 
-        // SR-10: a pressed switch outside homing is a fault; during homing,
-        // on a homed axis at rest.
+        // SR-10: a homed joint's pressed switch outside homing is a fault;
+        // during homing, on a homed axis at rest. An unhomed joint's switch
+        // is its homing input in every state.
         let pressed = t.sense.limits & ALL;
-        if pressed != 0 {
+        if pressed & out.status.homed != 0 {
             ensure!(
                 !matches!(st, State::Operational | State::Stopping | State::SoftEstop),
-                t.fail(Sr::Sr10, "a switch pressed without a fault").got(f64::from(pressed))
+                t.fail(Sr::Sr10, "a switch pressed on a homed joint without a fault").got(f64::from(pressed))
             );
         }
         if let (State::Homing, Some(ph)) = (st, t.phases) {

@@ -32,14 +32,16 @@ impl<S: Scalar> Monitor<S> {
         }
         if t.holding {
             inc(&mut self.stats.holds);
-            ensure!(!t.surely_moving, t.fail(Sr::Sr29, "Holding while a set-point or an output still moves"));
+            ensure!(!t.sp_moving, t.fail(Sr::Sr29, "Holding while a set-point still moves"));
             ensure!(
                 matches!(st, State::Operational | State::Fault) && !out.status.timeout_armed,
                 t.fail(Sr::Sr29, "Holding did not stay Operational with the timeout disarmed")
             );
         }
         if t.timeout_stop {
-            ensure!(!t.surely_still, t.fail(Sr::Sr29, "latched at the timeout with every joint at rest at its target"));
+            // The decision is the set-points' alone: at rest on their
+            // targets the arm holds, whatever the outputs' residual.
+            ensure!(!t.sp_still, t.fail(Sr::Sr29, "latched at the timeout with every set-point at rest on its target"));
         }
         // SR-31: a lost link stops a moving arm, a homing run, and a stop
         // that was to end in homing, at once; an arm at rest holds.

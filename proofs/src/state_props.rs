@@ -241,6 +241,7 @@ struct Reached {
 fn step<S: Sym>(draw: Draw) -> Reached {
     let (mut k, auth, spec) = any_state::<S>(draw);
     let before = k.state();
+    let homed = k.homed();
     let prev = k.last_output();
     let sense = any_sense(&spec);
     let req = any_request::<S>(&auth);
@@ -266,9 +267,10 @@ fn step<S: Sym>(draw: Draw) -> Reached {
     if sense.hardware_fault.is_some() {
         assert!(after == State::Fault);
     }
-    // SR-10: a pressed switch faults in Operational, Stopping and SoftEstop
-    // (a `<HOME>` accepted in the same tick makes it a homing input).
-    let pressed = sense.limits & 0x3f != 0;
+    // SR-10: a homed joint's pressed switch faults in Operational, Stopping
+    // and SoftEstop (an unhomed joint's switch is its homing input, and a
+    // `<HOME>` accepted in the same tick makes it one).
+    let pressed = sense.limits & homed & 0x3f != 0;
     let guarded = matches!(before, State::Operational | State::Stopping | State::SoftEstop);
     kani::cover!(pressed && guarded && !home, "a switch pressed in a guarded state (SR-10 antecedent)");
     if pressed && guarded && !home {

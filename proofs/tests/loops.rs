@@ -50,6 +50,8 @@ const DOMAINS: &[(&str, u32, &str)] = &[
     ("state_ticks", 7, "per supervisor state"),
     ("faults", 11, "per fault kind"),
     ("timeout_stop", 3, "the three outcomes of a command timeout (stop, hold, link stop)"),
+    ("raw", 6, "the switch window (monitor::interactions::SWITCH_WINDOW samples)"),
+    ("mask", 6, "the switch window (monitor::interactions::SWITCH_WINDOW samples)"),
 ];
 
 /// Receivers whose `.map(` is `Option::map` / `Result::map`: not a loop.

@@ -18,7 +18,8 @@ use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use proptest_state_machine::{ReferenceStateMachine, StateMachineTest};
 use proptests::monitor::{Stats, FAULT_KINDS};
-use proptests::scenario::{run_step, start_strategy, step_strategy, Mix, Start, Step, Sut, Variant};
+use proptests::scenario::{class, run_step, start_strategy, step_strategy, Mix, Start, Step, Sut, Variant};
+use std::collections::BTreeMap;
 
 /// Default cases per variant (debug build: about 10 s each on 2 cores).
 const DEFAULT_CASES: u32 = 64;
@@ -46,6 +47,10 @@ impl ReferenceStateMachine for Model {
 
 thread_local! {
     static STATS: RefCell<Stats> = RefCell::new(Stats::default());
+    /// Ticks per interaction class (`proptests::scenario::class`), and the
+    /// step before the one being played.
+    static CLASSES: RefCell<BTreeMap<String, u64>> = const { RefCell::new(BTreeMap::new()) };
+    static PREV: RefCell<Option<Step>> = const { RefCell::new(None) };
 }
 
 struct KernelTest<S>(PhantomData<S>);
@@ -55,10 +60,16 @@ impl<S: Variant> StateMachineTest for KernelTest<S> {
     type Reference = Model;
 
     fn init_test(start: &Start) -> Sut<S> {
+        PREV.with(|p| *p.borrow_mut() = None);
         Sut::new(start)
     }
-    fn apply(mut sut: Sut<S>, _: &Start, step: Step) -> Sut<S> {
+    fn apply(mut sut: Sut<S>, start: &Start, step: Step) -> Sut<S> {
+        let c = PREV.with(|p| class(&sut, &step, p.borrow().as_ref(), start));
+        let t0 = sut.mon.stats.ticks;
         run_step(&mut sut, &step);
+        let n = sut.mon.stats.ticks.saturating_sub(t0);
+        CLASSES.with(|m| *m.borrow_mut().entry(c).or_insert(0) += n);
+        PREV.with(|p| *p.borrow_mut() = Some(step));
         sut
     }
     fn teardown(sut: Sut<S>, _: Start) {
@@ -72,6 +83,7 @@ fn run<S: Variant>(file: &'static str) {
     // Built outside the timed region (it homes once).
     let _ = S::homed_snapshot();
     STATS.with(|s| *s.borrow_mut() = Stats::default());
+    CLASSES.with(|m| m.borrow_mut().clear());
     let t0 = Instant::now();
     let mut runner = TestRunner::new(config.clone());
     let result = runner.run(&Model::sequential_strategy(STEPS), |(start, steps, seen)| {
@@ -112,12 +124,20 @@ fn run<S: Variant>(file: &'static str) {
         s.homing_done,
         faults.join(", ")
     );
+    // Ticks per interaction class (where modes meet), this run.
+    let classes = CLASSES.with(|m| m.borrow().clone());
+    let per_class: Vec<String> =
+        classes.iter().filter(|(c, _)| c.as_str() != "other").map(|(c, n)| format!("{c}: {n}")).collect();
+    println!("interaction classes [{}], ticks: {}", S::NAME, per_class.join("; "));
     // The generator must actually exercise the kernel (not a proof of
     // coverage, a guard against a vacuous generator).
     if cases >= DEFAULT_CASES {
         assert!(s.state_ticks.iter().all(|t| *t > 0), "every state visited: {:?}", s.state_ticks);
         assert!(s.accepted > 0 && s.enabled > 0 && s.stopped > 0 && s.homing_done > 0, "{s:?}");
         assert!(s.goto_accepted > 0 && s.link_stops > 0 && s.broken_motor_ticks > 0, "{s:?}");
+        for c in ["link loss in homing", "chatter", "burst", "switch pressed while homing"] {
+            assert!(classes.keys().any(|k| k.starts_with(c)), "no {c} class: {classes:?}");
+        }
     }
 }
 

@@ -9,8 +9,9 @@
 //! # Overflow policy
 //!
 //! - **Commands** (host to tick; the tick takes at most one per tick at
-//!   1 kHz while hosts send at most 100 Hz, so the queue fills only if the
-//!   tick stalls): the last [`CONTROL_RESERVE`] slots are reserved for
+//!   1 kHz; a burst of frames read at once can fill it, so the main loop
+//!   reads input only while [`HostEnd::has_room`] holds and the burst
+//!   waits in the port): the last [`CONTROL_RESERVE`] slots are reserved for
 //!   `HOME`, `HOMEn` and `ENABLE`. A motion target that would take a reserved
 //!   slot is *rejected* (the newest is dropped: a single-producer queue cannot
 //!   drop its oldest element from the producer side), counted and returned as
@@ -131,6 +132,13 @@ impl<S: Copy, const C: usize, const T: usize> HostEnd<'_, S, C, T> {
             self.refused = self.refused.saturating_add(1);
             Err(QueueFull { command, count: self.refused })
         }
+    }
+    /// True when a motion command would be queued now (room beyond the
+    /// [`CONTROL_RESERVE`]): any command then fits. The main loop reads
+    /// input only while this holds, so a burst waits in the port instead
+    /// of being dropped (the tick only frees slots).
+    pub fn has_room(&self) -> bool {
+        self.cmd_tx.capacity().saturating_sub(self.cmd_tx.len()) > CONTROL_RESERVE
     }
     /// Next telemetry element, if any.
     pub fn recv(&mut self) -> Option<Telemetry<S>> {

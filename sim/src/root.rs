@@ -42,6 +42,13 @@ pub struct Step {
     pub phases: [Phase; AXES],
     /// Every complete line the port took during this step, in order.
     pub lines: Vec<String>,
+    /// The raw switch inputs the tick read, a bit per closed switch
+    /// (before debouncing).
+    pub raw_closed: u8,
+    /// Commands the full queue refused so far (`QUEUE_FULL`).
+    pub queue_refused: u32,
+    /// The tick reported an overrun (injected).
+    pub overrun: bool,
 }
 
 /// The simulated arm as the tick sees it.
@@ -53,6 +60,10 @@ pub struct SimBoard {
     pub overrun: bool,
     /// Watchdog refreshes so far.
     pub watchdog_feeds: u64,
+    /// The levels of the last limit-input read (bit set: pin high, open).
+    pub last_levels: u8,
+    /// The last tick reported an overrun.
+    pub overran: bool,
     started: Instant,
 }
 
@@ -61,7 +72,8 @@ impl TickBoard for SimBoard {
         self.plant.capture()
     }
     fn limit_levels(&mut self) -> u8 {
-        self.plant.limit_levels()
+        self.last_levels = self.plant.limit_levels();
+        self.last_levels
     }
     fn apply(&mut self, cmds: &[StepCommand; AXES]) {
         self.plant.apply(cmds);
@@ -79,7 +91,8 @@ impl TickBoard for SimBoard {
         (ns.wrapping_mul(3) / 5) as u32
     }
     fn end_of_tick(&mut self) -> bool {
-        std::mem::take(&mut self.overrun)
+        self.overran = std::mem::take(&mut self.overrun);
+        self.overran
     }
     fn boot_wait_ms(&mut self) {
         self.plant.apply(&[StepCommand::Stop; AXES]);
@@ -174,6 +187,8 @@ impl Root {
             plant: Plant::new(cfg.config(), plant),
             overrun: false,
             watchdog_feeds: 0,
+            last_levels: 0b11_1111,
+            overran: false,
             started: Instant::now(),
         };
         let _ = controller.boot(&mut board, 0, false);
@@ -255,6 +270,9 @@ impl Root {
             sense: rec.sense,
             phases: self.controller.homing_phases(),
             lines,
+            raw_closed: !self.board.last_levels & 0b11_1111,
+            queue_refused: self.host.queue_refused(),
+            overrun: self.board.overran,
         };
         self.t_ms += 1;
         step

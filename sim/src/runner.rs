@@ -74,6 +74,10 @@ fn fault_matches(kind: &str, joint: Option<usize>, r: &FaultReason) -> bool {
 #[derive(Clone, Debug)]
 pub struct TickChecker {
     monitor: Monitor<f32>,
+    /// A switch closed most of a window is seen (SR-10).
+    switches: monitor::interactions::SwitchWatch,
+    /// No frame dropped while the tick runs on time (SR-26).
+    frames: monitor::interactions::FrameWatch,
     /// Largest velocity change per tick of each joint (rad/s), 1 % slack.
     dv_max: [f64; AXES],
     prev: Option<Sample>,
@@ -84,7 +88,13 @@ impl TickChecker {
     pub fn new(cfg: &Validated) -> Self {
         let c = cfg.config();
         let dv_max = c.joints.map(|j| f64::from(j.max_acceleration) / f64::from(c.tick_hz) * 1.01 + 1e-6);
-        TickChecker { monitor: Monitor::new(c), dv_max, prev: None }
+        TickChecker {
+            monitor: Monitor::new(c),
+            switches: monitor::interactions::SwitchWatch::new(),
+            frames: monitor::interactions::FrameWatch::new(),
+            dv_max,
+            prev: None,
+        }
     }
 
     /// Checks one step (call for every step, in order); returns the
@@ -104,6 +114,13 @@ impl TickChecker {
             (k, _) => Sent::from_kind(k),
         });
         if let Err(v) = self.monitor.check(&step.sense, sent.as_ref(), &step.out, Some(&step.phases), None) {
+            bad.push(v.to_string());
+        }
+        let (tick, state) = (step.out.status.tick, step.out.status.state);
+        if let Err(v) = self.switches.check(step.raw_closed, step.sense.limits, tick, state) {
+            bad.push(v.to_string());
+        }
+        if let Err(v) = self.frames.check(step.queue_refused, step.overrun, tick, state) {
             bad.push(v.to_string());
         }
         let now = Sample {
@@ -202,7 +219,7 @@ pub struct Run<'a> {
     fired: Vec<bool>,
     streams: Vec<Stream>,
     /// Occurrences of each anchor (ms), indexed like `Anchor::index`.
-    occ: [Vec<u64>; 4],
+    occ: [Vec<u64>; Anchor::ALL.len()],
     trace: Vec<Sample>,
     /// Tracking: set-point vs true position while following a stream
     /// (Operational, a motion accepted within the last 50 ms).
@@ -364,9 +381,9 @@ impl<'a> Run<'a> {
                     input.extend_from_slice(b);
                 }
             }
-            Action::Stream { client, rate_hz, duration_ms, motion } => {
+            Action::Stream { client, rate_hz, duration_ms, motion, burst } => {
                 let p0 = self.pose_now();
-                self.streams.push(Stream::new(*client, *rate_hz, *duration_ms, *motion, self.t, p0));
+                self.streams.push(Stream::new(*client, *rate_hz, *duration_ms, *motion, self.t, p0).with_burst(*burst));
             }
             Action::Goto { client, pose } => {
                 let l = self.hosts.frame(*client, pose, &[0.0; AXES]);
@@ -391,6 +408,7 @@ impl<'a> Run<'a> {
             Action::CableSilent => self.cable = false,
             Action::ReverseDir(j, on) => plant.set_dir_inverted(*j, *on),
             Action::Noise(n) => plant.set_noise(*n),
+            Action::Overrun => self.root.board.overrun = true,
         }
     }
 
@@ -475,12 +493,24 @@ impl<'a> Run<'a> {
                     *self.refusals.entry(format!("{request:?}: {reason:?}")).or_default() += 1;
                 }
                 Event::Enabled(_) => self.occ[Anchor::Enabled.index()].push(t),
+                Event::HomingStarted { .. } => self.occ[Anchor::HomingStarted.index()].push(t),
+                Event::SoftEstop { cause } => {
+                    self.occ[Anchor::SoftStop.index()].push(t);
+                    if *cause == kernel::StopCause::LinkLost {
+                        self.occ[Anchor::LinkLost.index()].push(t);
+                    }
+                }
+                Event::Stopped => self.occ[Anchor::Stopped.index()].push(t),
+                Event::Holding => self.occ[Anchor::Holding.index()].push(t),
                 _ => {}
             }
         }
         let ps = self.prev_status;
         if out.status.homing == HomingStatus::Complete && ps.is_none_or(|p| p.homing != HomingStatus::Complete) {
             self.occ[Anchor::Homed.index()].push(t);
+        }
+        if out.status.homing == HomingStatus::Failed && ps.is_none_or(|p| p.homing != HomingStatus::Failed) {
+            self.occ[Anchor::HomingFailed.index()].push(t);
         }
         for (st, a) in [(State::SoftEstop, Anchor::Estop), (State::Fault, Anchor::Fault)] {
             if out.status.state == st && ps.is_none_or(|p| p.state != st) {
@@ -721,6 +751,8 @@ impl<'a> Run<'a> {
             | Expect::WrongWayBelow(..)
             | Expect::ExcursionBelow(..)
             | Expect::StillBetween(..)
+            | Expect::LineCount(..)
+            | Expect::NoLineBetween(..)
             | Expect::AtTargetWithin(..)
             | Expect::AccelWithinLimits(..)
             | Expect::Pending(_) => return None,
@@ -808,9 +840,28 @@ impl<'a> Run<'a> {
                     }
                 },
             },
-            Expect::StillBetween(a, b) => match (self.window(a), self.window(b)) {
+            Expect::LineCount(n, text) => {
+                let got = self.all_lines.iter().filter(|(_, l)| l.contains(text.as_str())).count();
+                (got == *n, format!("{got} line(s)"))
+            }
+            Expect::NoLineBetween(a, b, text) => match (self.window(a), self.window(b)) {
                 (Some(a), Some(b)) => {
-                    let m = from_t(trace, a).iter().take_while(|s| s.t <= b).find(|s| !s.still);
+                    let hit = self.all_lines.iter().find(|(t, l)| *t >= a && *t <= b && l.contains(text.as_str()));
+                    (
+                        hit.is_none(),
+                        hit.map(|(t, l)| format!("at {t} ms: {}", l.trim_end()))
+                            .unwrap_or(format!("none from {a} to {b} ms")),
+                    )
+                }
+                _ => (false, format!("{a} or {b} never happened")),
+            },
+            Expect::StillBetween(a, b, joint) => match (self.window(a), self.window(b)) {
+                (Some(a), Some(b)) => {
+                    let still = |s: &&Sample| match joint {
+                        Some(j) => s.v.get(*j).is_some_and(|v| v.abs() < STILL_SPEED),
+                        None => s.still,
+                    };
+                    let m = from_t(trace, a).iter().take_while(|s| s.t <= b).find(|s| !still(s));
                     (
                         m.is_none(),
                         m.map(|s| {

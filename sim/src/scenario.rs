@@ -21,11 +21,34 @@ pub enum Anchor {
     Fault,
     /// A latched stop or fault was cleared.
     Enabled,
+    /// A homing run started (`HOMING_STARTED`).
+    HomingStarted,
+    /// Homing became H3 (a run failed).
+    HomingFailed,
+    /// A soft stop started (`SOFT_ESTOP`, any cause).
+    SoftStop,
+    /// A soft stop started for a lost link (`SOFT_ESTOP LINK_LOST`).
+    LinkLost,
+    /// A ramp ended latched (`STOPPED`).
+    Stopped,
+    /// The timeout held an arm at rest (`HOLDING`).
+    Holding,
 }
 
 impl Anchor {
     /// All anchors.
-    pub const ALL: [Anchor; 4] = [Anchor::Homed, Anchor::Estop, Anchor::Fault, Anchor::Enabled];
+    pub const ALL: [Anchor; 10] = [
+        Anchor::Homed,
+        Anchor::Estop,
+        Anchor::Fault,
+        Anchor::Enabled,
+        Anchor::HomingStarted,
+        Anchor::HomingFailed,
+        Anchor::SoftStop,
+        Anchor::LinkLost,
+        Anchor::Stopped,
+        Anchor::Holding,
+    ];
     /// Name in scripts.
     pub fn name(self) -> &'static str {
         match self {
@@ -33,6 +56,12 @@ impl Anchor {
             Anchor::Estop => "estop",
             Anchor::Fault => "fault",
             Anchor::Enabled => "enabled",
+            Anchor::HomingStarted => "homing-started",
+            Anchor::HomingFailed => "h3",
+            Anchor::SoftStop => "soft-stop",
+            Anchor::LinkLost => "link-lost",
+            Anchor::Stopped => "stopped",
+            Anchor::Holding => "holding",
         }
     }
     /// Index into per-anchor tables.
@@ -52,11 +81,12 @@ pub struct When {
 }
 
 impl When {
-    /// Resolves against the occurrence times recorded so far.
-    pub fn resolve(&self, occurrences: &[Vec<u64>; 4]) -> Option<u64> {
+    /// Resolves against the occurrence times recorded so far (indexed like
+    /// [`Anchor::index`]; an anchor beyond the table never happens).
+    pub fn resolve(&self, occurrences: &[Vec<u64>]) -> Option<u64> {
         match self.anchor {
             None => Some(self.offset_ms),
-            Some((a, n)) => occurrences[a.index()].get(n.saturating_sub(1) as usize).map(|t| t + self.offset_ms),
+            Some((a, n)) => occurrences.get(a.index())?.get(n.saturating_sub(1) as usize).map(|t| t + self.offset_ms),
         }
     }
 }
@@ -145,6 +175,9 @@ pub enum Action {
         duration_ms: u64,
         /// What it sends.
         motion: Motion,
+        /// Frames are held and delivered this many at once (1: each when
+        /// due), as a loaded host or a coalescing USB stack delivers them.
+        burst: usize,
     },
     /// One motion frame to a pose with zero velocities.
     Goto {
@@ -182,6 +215,8 @@ pub enum Action {
     ReverseDir(usize, bool),
     /// Encoder noise (sigma, counts).
     Noise(f64),
+    /// The next tick reports an overrun (the tick ran late).
+    Overrun,
 }
 
 /// Fault kinds as written in scripts.
@@ -238,9 +273,13 @@ pub enum Expect {
     /// From `from` to the end, the joint's true angle stays within this
     /// distance (rad) of its angle at `from`.
     ExcursionBelow(usize, When, f64),
-    /// Every commanded speed is below the standstill threshold from `from`
-    /// to `to`.
-    StillBetween(When, When),
+    /// Every commanded speed (or joint J's, if given) is below the
+    /// standstill threshold from `from` to `to`.
+    StillBetween(When, When, Option<usize>),
+    /// Exactly this many lines contain the text.
+    LineCount(usize, String),
+    /// No line containing the text was sent from `from` to `to`.
+    NoLineBetween(When, When, String),
     /// At this time every joint's true angle is within this distance (rad)
     /// of the last accepted motion target.
     AtTargetWithin(When, f64),
@@ -276,7 +315,10 @@ impl fmt::Display for Expect {
             Expect::LineSequence(ts) => write!(f, "lines in order: {}", ts.join(" ; ")),
             Expect::WrongWayBelow(j, r) => write!(f, "J{} travels < {r} rad against its command", j + 1),
             Expect::ExcursionBelow(j, w, r) => write!(f, "J{} stays within {r} rad of its angle at {w}", j + 1),
-            Expect::StillBetween(a, b) => write!(f, "standstill from {a} to {b}"),
+            Expect::StillBetween(a, b, None) => write!(f, "standstill from {a} to {b}"),
+            Expect::StillBetween(a, b, Some(j)) => write!(f, "J{} at standstill from {a} to {b}", j + 1),
+            Expect::LineCount(n, t) => write!(f, "exactly {n} line(s) contain {t:?}"),
+            Expect::NoLineBetween(a, b, t) => write!(f, "no line contains {t:?} from {a} to {b}"),
             Expect::AtTargetWithin(w, r) => write!(f, "within {r} rad of the last target at {w}"),
             Expect::AccelWithinLimits(a, b) => write!(f, "acceleration within limits from {a} to {b}"),
             Expect::Pending(e) => write!(f, "PENDING (kernel defect, reported): {e}"),
@@ -387,6 +429,12 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         "at" => {
             let (when, action) = split1(rest);
             let when = parse_when(when)?;
+            if let Some(chatter) = parse_chatter(action)? {
+                // A chattering switch: forced closed and open in turn, then
+                // back to its position (expanded here into plain actions).
+                s.actions.extend(chatter.into_iter().map(|(dt, a)| (When { offset_ms: when.offset_ms + dt, ..when }, a)));
+                return Ok(());
+            }
             let action = parse_action(action)?;
             s.actions.push((when, action));
         }
@@ -397,6 +445,33 @@ fn parse_line(s: &mut Scenario, line: &str) -> Result<()> {
         ),
     }
     Ok(())
+}
+
+/// `switch J chatter CLOSED_MS OPEN_MS DURATION`: the switch forced closed
+/// for CLOSED_MS, open for OPEN_MS, repeated for DURATION, then back to its
+/// position; as (offset ms, action) pairs. `None` for any other action.
+fn parse_chatter(text: &str) -> Result<Option<Vec<(u64, Action)>>> {
+    let (kw, rest) = split1(text);
+    let w: Vec<&str> = rest.split_whitespace().collect();
+    if kw != "switch" || w.get(1) != Some(&"chatter") {
+        return Ok(None);
+    }
+    let [j, _, closed, open, duration] = w[..] else {
+        bail!("usage: switch J chatter CLOSED_MS OPEN_MS DURATION");
+    };
+    let (j, closed, open, duration) = (joint(j)?, parse_ms(closed)?, parse_ms(open)?, parse_ms(duration)?);
+    if closed == 0 || open == 0 {
+        bail!("switch chatter: closed and open times must be at least 1 ms");
+    }
+    let mut out = Vec::new();
+    let mut t = 0;
+    while t < duration {
+        out.push((t, Action::Switch(j, Some(true))));
+        out.push((t + closed, Action::Switch(j, Some(false))));
+        t += closed + open;
+    }
+    out.push((t, Action::Switch(j, None)));
+    Ok(Some(out))
 }
 
 fn parse_action(text: &str) -> Result<Action> {
@@ -410,8 +485,18 @@ fn parse_action(text: &str) -> Result<Action> {
         }
         "raw" => Action::Send(unescape(rest.trim())?),
         "stream" => {
-            // stream CLIENT RATE_HZ DURATION cosine PERIOD A1..A6
-            // stream CLIENT RATE_HZ DURATION jog J VEL
+            // stream CLIENT RATE_HZ DURATION cosine PERIOD A1..A6 [burst N]
+            // stream CLIENT RATE_HZ DURATION jog J VEL [burst N]
+            let (w, burst) = match w[..] {
+                [ref head @ .., "burst", n] => {
+                    let n: usize = n.parse().context("burst must be a whole number of frames")?;
+                    if n == 0 {
+                        bail!("burst must be at least 1 frame");
+                    }
+                    (head.to_vec(), n)
+                }
+                _ => (w.clone(), 1),
+            };
             if w.len() < 4 {
                 bail!("usage: stream driver|config RATE_HZ DURATION (cosine PERIOD A1..A6 | jog J VEL)");
             }
@@ -436,7 +521,7 @@ fn parse_action(text: &str) -> Result<Action> {
                 }
                 m => bail!("unknown motion `{m}` (cosine or jog)"),
             };
-            Action::Stream { client, rate_hz, duration_ms, motion }
+            Action::Stream { client, rate_hz, duration_ms, motion, burst }
         }
         "goto" => {
             if w.len() != 7 {
@@ -458,6 +543,11 @@ fn parse_action(text: &str) -> Result<Action> {
             Action::Glitch { joint: joint(w[0])?, offset: w[1].parse().context("offset must be an integer")?, frames }
         }
         "encoder" => {
+            if let [j, "offset", c] = w[..] {
+                // A lasting offset: every later frame reads C counts off.
+                let offset = c.parse().context("offset must be an integer")?;
+                return Ok(Action::Glitch { joint: joint(j)?, offset, frames: u32::MAX });
+            }
             let [j, st] = two(&w)?;
             let line = match st {
                 "ok" => Line::Ok,
@@ -490,6 +580,12 @@ fn parse_action(text: &str) -> Result<Action> {
             Action::LostSteps(joint(j)?, f)
         }
         "noise" => Action::Noise(num(one(&w)?)?),
+        "overrun" => {
+            if !w.is_empty() {
+                bail!("usage: overrun");
+            }
+            Action::Overrun
+        }
         "reverse-dir" => match w[..] {
             [j] => Action::ReverseDir(joint(j)?, true),
             [j, "on"] => Action::ReverseDir(joint(j)?, true),
@@ -498,7 +594,7 @@ fn parse_action(text: &str) -> Result<Action> {
         },
         o => bail!(
             "unknown action `{o}` (send, raw, stream, goto, cable, glitch, encoder, switch, runaway, lost-steps, \
-             reverse-dir, noise)"
+             reverse-dir, noise, overrun)"
         ),
     })
 }
@@ -554,9 +650,23 @@ fn parse_expect(text: &str) -> Result<Expect> {
             [j, from, r] => Expect::ExcursionBelow(joint(j)?, parse_when(from)?, num(r)?),
             _ => bail!("usage: expect excursion-below J FROM RAD"),
         },
-        "still-between" => {
-            let [a, b] = two(&w)?;
-            Expect::StillBetween(parse_when(a)?, parse_when(b)?)
+        "still-between" => match w[..] {
+            [a, b] => Expect::StillBetween(parse_when(a)?, parse_when(b)?, None),
+            [a, b, j] => Expect::StillBetween(parse_when(a)?, parse_when(b)?, Some(joint(j)?)),
+            _ => bail!("usage: expect still-between FROM TO [J]"),
+        },
+        "line-count" => {
+            let (n, text) = split1(rest.trim());
+            let n = n.parse().context("line-count takes a whole number, then the text")?;
+            Expect::LineCount(n, text.trim().to_string())
+        }
+        "no-line-between" => {
+            let (a, r) = split1(rest.trim());
+            let (b, text) = split1(r.trim());
+            if text.trim().is_empty() {
+                bail!("usage: expect no-line-between FROM TO TEXT");
+            }
+            Expect::NoLineBetween(parse_when(a)?, parse_when(b)?, text.trim().to_string())
         }
         "at-target-within" => {
             let [t, r] = two(&w)?;
@@ -701,7 +811,10 @@ pub fn parse_when(s: &str) -> Result<When> {
         bail!("occurrences count from 1");
     }
     let anchor = Anchor::ALL.into_iter().find(|a| a.name() == name).with_context(|| {
-        format!("unknown anchor `{name}` (homed, estop, fault, enabled; e.g. homed+500 or estop#2+1s)")
+        format!(
+            "unknown anchor `{name}` (homed, estop, fault, enabled, homing-started, h3, soft-stop, link-lost, \
+             stopped, holding; e.g. homed+500 or estop#2+1s)"
+        )
     })?;
     Ok(When { anchor: Some((anchor, n)), offset_ms: off })
 }
@@ -736,7 +849,7 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 18] = [
+pub const BUILTIN: [(&str, &str); 24] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("driver-stream-cut", include_str!("../scenarios/driver-stream-cut.scn")),
@@ -755,6 +868,12 @@ pub const BUILTIN: [(&str, &str); 18] = [
     ("runaway", include_str!("../scenarios/runaway.scn")),
     ("inverted-dir", include_str!("../scenarios/inverted-dir.scn")),
     ("dead-homing-switch", include_str!("../scenarios/dead-homing-switch.scn")),
+    ("homing-link-loss", include_str!("../scenarios/homing-link-loss.scn")),
+    ("homing-link-loss-seek", include_str!("../scenarios/homing-link-loss-seek.scn")),
+    ("limit-chatter", include_str!("../scenarios/limit-chatter.scn")),
+    ("stream-stop-at-speed", include_str!("../scenarios/stream-stop-at-speed.scn")),
+    ("burst-stream", include_str!("../scenarios/burst-stream.scn")),
+    ("tick-overrun", include_str!("../scenarios/tick-overrun.scn")),
 ];
 
 /// Parses the built-in scenarios.

@@ -21,6 +21,9 @@ pub struct Stream {
     motion: Motion,
     p0: [f64; AXES],
     finished: bool,
+    /// Frames are held and sent this many at once (1: each when due).
+    burst: usize,
+    held: Vec<String>,
 }
 
 impl Stream {
@@ -35,7 +38,17 @@ impl Stream {
             motion,
             p0,
             finished: false,
+            burst: 1,
+            held: Vec::new(),
         }
+    }
+
+    /// The same stream delivered `n` frames at once (a loaded host, a USB
+    /// stack that coalesces): each frame is made when due and held until
+    /// `n` are waiting or the stream ends.
+    pub fn with_burst(mut self, n: usize) -> Self {
+        self.burst = n.max(1);
+        self
     }
 
     /// Its last frame has been sent.
@@ -91,7 +104,10 @@ impl Hosts {
         let mut lines = Vec::new();
         for s in streams.iter_mut() {
             if let Some((p, v)) = s.due(t) {
-                lines.push(self.frame(s.client, &p, &v));
+                s.held.push(self.frame(s.client, &p, &v));
+                if s.held.len() >= s.burst || s.finished {
+                    lines.append(&mut s.held);
+                }
             }
         }
         lines

@@ -29,7 +29,7 @@ pub struct Outcome {
     /// (ms) their first byte left the UART.
     pub events: Vec<(u64, String)>,
     /// Occurrences of each anchor (ms), indexed like `Anchor::index`.
-    pub anchors: [Vec<u64>; 4],
+    pub anchors: [Vec<u64>; Anchor::ALL.len()],
     /// Simulated duration (ms).
     pub end_ms: u64,
     /// Joint angles at the end (rad).
@@ -112,8 +112,8 @@ pub fn run(sc: &Scenario, elf: &[u8]) -> Result<Outcome, String> {
             match action {
                 Action::Send(bytes) if cable => b.serial_send(bytes),
                 Action::Send(_) => {}
-                Action::Stream { client, rate_hz, duration_ms, motion } => {
-                    streams.push(Stream::new(*client, *rate_hz, *duration_ms, *motion, ms, pose_now))
+                Action::Stream { client, rate_hz, duration_ms, motion, burst } => {
+                    streams.push(Stream::new(*client, *rate_hz, *duration_ms, *motion, ms, pose_now).with_burst(*burst))
                 }
                 Action::Goto { client, pose } => {
                     let l = hosts.frame(*client, pose, &[0.0; AXES]);

@@ -194,3 +194,48 @@ impl<S: Scalar> Params<S> {
         }
     }
 }
+
+#[cfg(test)]
+mod figures {
+    use super::Params;
+    use crate::config::PAROL6_VALIDATED;
+    use crate::interp::Interpolator;
+    use crate::scalar::Scalar;
+
+    /// Ticks a set-point moving at the speed limit needs to come to rest
+    /// on a target one braking distance ahead (the kernel's own profile,
+    /// stepped).
+    fn braking_ticks<S: Scalar>(p: &super::AxisParams<S>) -> u32 {
+        let stop_at = p.vmax.times(p.vmax).times(p.profile.inv_2a);
+        let mut i = Interpolator::from_parts(S::ZERO, stop_at, p.vmax, p.vmax);
+        let mut n = 0;
+        while !i.at_rest() && n < 10_000 {
+            i.advance(&p.profile);
+            n += 1;
+        }
+        n
+    }
+
+    /// The figures the documents quote (docs/PROTOCOL.md 6.2, 6.3;
+    /// SAFETY.md SR-30, section 8), printed from the kernel's parameters:
+    /// `cargo test -p kernel --lib figures -- --nocapture`.
+    #[test]
+    fn document_figures() {
+        let p = Params::<f32>::new(&PAROL6_VALIDATED);
+        for (i, (a, j)) in p.axes.iter().zip(PAROL6_VALIDATED.config().joints.iter()).enumerate() {
+            // The stepped profile stops within a few ticks of v / a, and the
+            // continuity bound admits a full-speed stream's set-point lag.
+            let ideal = (j.max_velocity / j.setpoint_acceleration() * p.tick_hz as f32).ceil() as u32;
+            let n = braking_ticks(a);
+            assert!((ideal..=ideal + 3).contains(&n), "J{}: {n} ticks, v/a {ideal}", i + 1);
+            assert!(a.max_jump_rad > j.setpoint_braking_distance(j.max_velocity));
+            println!(
+                "J{}: stream-continuity bound {:.4} rad, set-point braking from {:.1} rad/s: {} ms",
+                i + 1,
+                a.max_jump_rad,
+                a.vmax,
+                n
+            );
+        }
+    }
+}

@@ -229,15 +229,19 @@ impl<S: Scalar> Kernel<S> {
                 if self.armed {
                     self.since_cmd = self.since_cmd.saturating_add(1);
                 }
-                if self.armed && self.since_cmd > self.p.timeout_ticks && self.moving() {
-                    // Interrupted motion: ramp down and latch.
+                if self.armed && self.since_cmd > self.p.timeout_ticks && !self.setpoints_at_rest() {
+                    // Interrupted motion (a set-point still travelling):
+                    // ramp down and latch. A set-point at rest on its last
+                    // target holds below, whatever the estimate's residual
+                    // (the following-error check guards it; SR-29).
                     self.transition(Edge::Timeout);
                     let ms =
                         self.since_cmd.saturating_mul(1000).checked_div(self.p.tick_hz.unsigned_abs()).unwrap_or(0);
                     events.push(Event::SoftEstop { cause: StopCause::CommandTimeout { since_command_ms: ms } });
                 } else {
                     if self.armed && self.since_cmd > self.p.timeout_ticks {
-                        // At rest at the final target: hold, latch nothing.
+                        // Every set-point at rest on its last target: hold,
+                        // latch nothing.
                         self.armed = false;
                         self.since_cmd = 0;
                         events.push(Event::Holding);
@@ -308,22 +312,29 @@ impl<S: Scalar> Kernel<S> {
     }
 
     /// Checks that apply in every state, and the outputs themselves.
+    ///
+    /// A joint's switch is its homing input until the joint is homed, in
+    /// every state: a homing run that ends early (a lost link, a soft stop)
+    /// leaves its joints unhomed, possibly resting on their switches, and
+    /// that is no fault (SR-10). Likewise the joint limits apply to homed
+    /// joints only (SR-19): an unhomed joint's estimate is relative to an
+    /// unknown zero.
     fn check(&self, limits: u8, out: &[S; AXES], fault: &mut Option<FaultReason>) {
         let limit_is_fault = matches!(self.mode, Mode::Operational | Mode::Stopping { .. } | Mode::SoftEstop);
         for (i, ((ax, p), o)) in self.axes.iter().zip(self.p.axes.iter()).zip(out.iter()).enumerate() {
             let axis = i as u8;
             let pressed = limits & bit(i) != 0;
+            let homed = self.homed & bit(i) != 0;
             if ax.ready && ax.obs.v.abs() > p.runaway {
                 fault.get_or_insert(FaultReason::Runaway { axis });
             }
-            // During homing a switch is the homing input of a seeking axis
-            // and expected on axes not yet homed; on a homed axis at rest it
-            // means something moved it.
-            let homed_still = self.homed & bit(i) != 0 && !ax.homing.phase().is_moving();
-            if pressed && (limit_is_fault || (self.mode == Mode::Homing && homed_still)) {
+            // During homing a homed joint moves only while it is re-homed
+            // (a moving phase); at rest its switch means something moved it.
+            let homed_still = homed && !ax.homing.phase().is_moving();
+            if pressed && homed && (limit_is_fault || (self.mode == Mode::Homing && homed_still)) {
                 fault.get_or_insert(FaultReason::LimitSwitch { axis });
             }
-            let homed_moving = matches!(self.mode, Mode::Operational | Mode::Stopping { .. });
+            let homed_moving = homed && matches!(self.mode, Mode::Operational | Mode::Stopping { .. });
             if homed_moving && (ax.obs.x < p.pos_lo || ax.obs.x > p.pos_hi) {
                 fault.get_or_insert(FaultReason::PositionLimit { axis });
             }
@@ -376,7 +387,11 @@ impl<S: Scalar> Kernel<S> {
             if !valid {
                 return Some(FaultReason::EncoderLost { axis });
             }
-            if sense.limits & bit(i) != 0 {
+            // A switch is a cause on a homed joint only: an unhomed joint's
+            // switch is its homing input, and `<HOME>` moves it off (SR-6,
+            // SR-10). A joint whose count was lost is unhomed by the enable.
+            let homed = self.homed & bit(i) != 0 && !ax.needs_reinit;
+            if homed && sense.limits & bit(i) != 0 {
                 return Some(FaultReason::LimitSwitch { axis });
             }
             // An axis whose count was lost has a frozen estimate: enable
@@ -385,7 +400,6 @@ impl<S: Scalar> Kernel<S> {
             if !ax.needs_reinit && ax.obs.v.abs() > p.vmax {
                 return Some(FaultReason::Runaway { axis });
             }
-            let homed = self.homed & bit(i) != 0 && !ax.needs_reinit;
             if homed && (ax.obs.x < p.pos_lo || ax.obs.x > p.pos_hi) {
                 return Some(FaultReason::PositionLimit { axis });
             }

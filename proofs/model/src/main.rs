@@ -577,9 +577,13 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         let Action { req, perturb, pressed } = a;
         let before = s.k.state();
         let sense = self.sense(perturb, pressed);
-        let cause =
-            sense.limits & 0x3f != 0 || sense.hardware_fault.is_some() || sense.encoders.contains(&EncoderSample::Lost);
         let o = n.k.tick(&sense, req.map(|r| self.request(r)));
+        // A switch is a cause on a joint homed after the tick only (SR-6,
+        // SR-10: an unhomed joint's switch is its homing input, and an
+        // enable unhomes a joint whose encoder count was lost).
+        let cause = sense.limits & o.status.homed & 0x3f != 0
+            || sense.hardware_fault.is_some()
+            || sense.encoders.contains(&EncoderSample::Lost);
         let out = o.act.velocity;
         let st = o.status.state;
         let has = |f: &dyn Fn(&Event) -> bool| o.events.iter().any(f);
@@ -635,8 +639,9 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             }
         }
         self.rehoming_checks(s, &n, o.events.iter(), &mut c);
-        // SR-10: a pressed switch faults in the same tick in Operational,
-        // Stopping, SoftEstop, and during homing on a homed axis at rest.
+        // SR-10: a homed joint's pressed switch faults in the same tick in
+        // Operational, Stopping, SoftEstop, and during homing at rest (an
+        // unhomed joint's switch is its homing input in every state).
         // (Not in the tick a HOME is accepted: the switch is then a homing
         // input of a run that starts before the check.)
         let phases_before = s.k.homing_phases();
@@ -648,9 +653,9 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         let switch_is_fault = !homing_started
             && !ended_unhomed
             && (0..AXES).any(|i| {
-                sense.limits & (1 << i) != 0
+                sense.limits & s.k.homed() & (1 << i) != 0
                     && (matches!(before, State::Operational | State::Stopping | State::SoftEstop)
-                        || (before == State::Homing && s.k.homed() & (1 << i) != 0 && !phases_before[i].is_moving()))
+                        || (before == State::Homing && !phases_before[i].is_moving()))
             });
         c.check(Check::LimitSwitch, switch_is_fault, st == State::Fault);
         // SR-21: a hardware fault faults in the same tick, in every state.

@@ -8,6 +8,7 @@
 //! ([`Pair`]).
 
 use kernel::config::AXES;
+use kernel::homing::Phase;
 use kernel::State;
 
 use monitor::plant::{Plant, DEFAULT_OFFSETS};
@@ -19,7 +20,7 @@ mod strategy;
 mod sut;
 
 pub use pair::{Pair, MAX_SKEW, PROFILE_SPLIT, RESYNC_TICKS};
-pub use steps::{run_step, Bad, Req, Start, Step, STREAM_SPEED, STREAM_STEP};
+pub use steps::{class, on_a_switch, run_step, Bad, Req, Start, Step, STREAM_SPEED, STREAM_STEP};
 pub use strategy::{start_strategy, step_strategy, Mix};
 pub use sut::{Snapshot, Sut, Variant};
 
@@ -41,6 +42,8 @@ pub trait Driver {
     fn tick(&mut self, req: Option<Req>);
     /// The (reference) kernel's state.
     fn state(&self) -> State;
+    /// The (reference) kernel's homing phase of every axis.
+    fn phases(&self) -> [Phase; AXES];
 }
 
 /// Adds a finished run's coverage to a shared total.

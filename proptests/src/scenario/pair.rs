@@ -239,4 +239,7 @@ impl Driver for Pair {
     fn state(&self) -> State {
         self.a.k.state()
     }
+    fn phases(&self) -> [kernel::homing::Phase; AXES] {
+        self.a.k.homing_phases()
+    }
 }

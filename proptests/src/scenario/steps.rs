@@ -1,6 +1,7 @@
 //! The steps of a random operating sequence and how one is played.
 
 use kernel::config::{AXES, PAROL6};
+use kernel::homing::Phase;
 use kernel::{HardwareFault, State};
 
 use monitor::plant::EncoderFault;
@@ -179,6 +180,86 @@ pub enum Step {
     HomeJoint(u8, u32),
     /// Run until homing ends (at most [`HOMING_WAIT_MAX`] ticks).
     WaitHoming,
+    /// `<HOME>` (unless homing already), wait until `axis` is in `phase`
+    /// (at most [`HOMING_WAIT_MAX`] ticks), then the host link lost for
+    /// `ticks`: a link loss in that homing phase.
+    HomeLinkLoss {
+        /// Axis.
+        axis: usize,
+        /// The homing phase (a moving phase, or `Waiting`).
+        phase: Phase,
+        /// Duration of the loss.
+        ticks: u32,
+    },
+    /// The switch of `axis` chatters: closed `closed` ticks, open `open`
+    /// ticks, for `ticks` (a worn or loose switch).
+    Chatter {
+        /// Axis.
+        axis: usize,
+        /// Ticks closed per cycle.
+        closed: u32,
+        /// Ticks open per cycle.
+        open: u32,
+        /// Duration.
+        ticks: u32,
+    },
+    /// The switch of `axis` held pressed (an arm resting on it) while
+    /// `<HOME>` runs for `ticks`, then released.
+    PressedHome {
+        /// Axis.
+        axis: usize,
+        /// Duration.
+        ticks: u32,
+    },
+    /// `count` stream samples toward `goal` on consecutive ticks (a burst
+    /// the main loop hands over one per tick), then `idle` ticks.
+    Burst {
+        /// Goal, fraction of range per joint.
+        goal: [f64; AXES],
+        /// Samples.
+        count: u32,
+        /// Ticks after.
+        idle: u32,
+    },
+}
+
+/// A joint of `q` rests on (past) its homing switch.
+pub fn on_a_switch(q: &[f64; AXES]) -> bool {
+    PAROL6.joints.iter().zip(q.iter()).any(|(j, q)| {
+        let s = f64::from(j.homing.switch_position);
+        match j.homing.direction {
+            kernel::config::Direction::Positive => *q >= s,
+            kernel::config::Direction::Negative => *q <= s,
+        }
+    })
+}
+
+/// The interaction class of `step` (ticks per class per run are printed
+/// by the state-machine test): a link loss, an enable and a home in each
+/// state; a link loss in each homing phase; the switch patterns (chatter,
+/// pressed while homing, pressed at power-on); go-to and stream mixed;
+/// bursts. `d` is the driver before the step, `prev` the step before it
+/// (`None` for the first), `start` the case's start.
+pub fn class<D: Driver + ?Sized>(d: &D, step: &Step, prev: Option<&Step>, start: &Start) -> String {
+    let st = d.state();
+    let first = prev.is_none();
+    match step {
+        Step::LinkLoss(_) => format!("link loss in {st:?}"),
+        Step::Enable(_) => format!("enable in {st:?}"),
+        Step::Home(_) | Step::HomeJoint(..) => format!("home in {st:?}"),
+        Step::HomeLinkLoss { axis, phase, .. } => format!("link loss in homing, J{} {phase:?}", axis + 1),
+        Step::Chatter { .. } => format!("chatter in {st:?}"),
+        Step::PressedHome { .. } => "switch pressed while homing".to_string(),
+        _ if first && matches!(start, Start::Fresh { q, .. } if on_a_switch(q)) => {
+            "first step after power-on on a switch".to_string()
+        }
+        Step::Burst { .. } => format!("burst in {st:?}"),
+        Step::GoTo { .. } if matches!(prev, Some(Step::Stream { .. } | Step::Burst { .. })) => {
+            "go-to after a stream".to_string()
+        }
+        Step::Stream { .. } if matches!(prev, Some(Step::GoTo { .. })) => "stream after a go-to".to_string(),
+        _ => "other".to_string(),
+    }
 }
 
 pub(super) fn range(i: usize) -> (f64, f64) {
@@ -364,6 +445,50 @@ pub fn run_step<D: Driver + ?Sized>(d: &mut D, step: &Step) {
                 }
                 d.tick(None);
             }
+        }
+        Step::HomeLinkLoss { axis, phase, ticks } => {
+            if d.state() != State::Homing {
+                d.tick(Some(Req::Home));
+            }
+            for _ in 0..HOMING_WAIT_MAX {
+                if d.state() != State::Homing || d.phases().get(*axis) == Some(phase) {
+                    break;
+                }
+                d.tick(None);
+            }
+            d.env(&|p| p.link_lost = true);
+            idle(d, *ticks);
+            d.env(&|p| p.link_lost = false);
+        }
+        Step::Chatter { axis, closed, open, ticks } => {
+            let m = 1u8 << axis;
+            let period = closed.saturating_add(*open).max(1);
+            for t in 0..*ticks {
+                let on = t % period < *closed;
+                d.env(&|p| if on { p.force_switch |= m } else { p.force_switch &= !m });
+                d.tick(None);
+            }
+            d.env(&|p| p.force_switch &= !m);
+        }
+        Step::PressedHome { axis, ticks } => {
+            let m = 1u8 << axis;
+            d.env(&|p| p.force_switch |= m);
+            d.tick(Some(Req::Home));
+            idle(d, *ticks);
+            d.env(&|p| p.force_switch &= !m);
+        }
+        Step::Burst { goal, count, idle: n } => {
+            let q0 = d.q();
+            let goal = angles(goal);
+            // Within one segment's travel per sample (`STREAM_STEP`).
+            let far = (0..AXES).map(|i| (goal[i] - q0[i]).abs()).fold(0.0, f64::max);
+            let count = (*count).max((far / STREAM_STEP).ceil() as u32).max(1);
+            for k in 1..=count {
+                let f = f64::from(k) / f64::from(count);
+                let p: [f64; AXES] = std::array::from_fn(|i| q0[i] + (goal[i] - q0[i]) * f);
+                d.tick(Some(Req::Motion(p, [0.0; AXES])));
+            }
+            idle(d, *n);
         }
     }
 }

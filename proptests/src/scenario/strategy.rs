@@ -1,6 +1,7 @@
 //! The proptest strategies that draw steps and starts.
 
 use kernel::config::AXES;
+use kernel::homing::Phase;
 use kernel::HardwareFault;
 use proptest::prelude::*;
 
@@ -45,6 +46,17 @@ fn bad() -> impl Strategy<Value = Bad> {
     ]
 }
 
+fn homing_phase() -> impl Strategy<Value = Phase> {
+    prop_oneof![
+        Just(Phase::Waiting),
+        Just(Phase::FastSeek),
+        Just(Phase::BackOff),
+        Just(Phase::SlowSeek),
+        Just(Phase::Release),
+        Just(Phase::Settle),
+    ]
+}
+
 fn hardware() -> impl Strategy<Value = HardwareFault> {
     prop_oneof![
         Just(HardwareFault::TickOverrun),
@@ -75,6 +87,12 @@ pub fn step_strategy(mix: Mix) -> BoxedStrategy<Step> {
         2 => (0u8..8, 0u32..=200).prop_map(|(j, n)| Step::HomeJoint(j, n)),
         3 => Just(Step::WaitHoming),
         2 => Just(Step::ReturnInside),
+        3 => (axis(), homing_phase(), prop_oneof![1u32..=20, 100u32..=400])
+            .prop_map(|(axis, phase, ticks)| Step::HomeLinkLoss { axis, phase, ticks }),
+        2 => (axis(), 1u32..=3, 1u32..=2, 3u32..=400)
+            .prop_map(|(axis, closed, open, ticks)| Step::Chatter { axis, closed, open, ticks }),
+        1 => (axis(), 100u32..=3000).prop_map(|(axis, ticks)| Step::PressedHome { axis, ticks }),
+        2 => (fractions(), 2u32..=20, 0u32..=300).prop_map(|(goal, count, idle)| Step::Burst { goal, count, idle }),
     ];
     match mix {
         Mix::Discrete => common.boxed(),
@@ -108,10 +126,20 @@ pub fn start_strategy() -> BoxedStrategy<Start> {
         0.0..std::f64::consts::TAU,
         0.0..std::f64::consts::TAU,
     ];
+    // Sometimes one joint rests past its homing switch at power-on (the
+    // pose a crashed host leaves): the switch is its homing input.
+    let past = |i: usize| {
+        let h = &kernel::config::PAROL6.joints[i].homing;
+        f64::from(h.switch_position) + f64::from(h.direction.sign()) * 0.03
+    };
     prop_oneof![
-        2 => Just(Start::Homed),
-        1 => (q, off, proptest::option::weighted(0.5, (0..AXES, 1u64..=120)))
+        4 => Just(Start::Homed),
+        2 => (q.clone(), off.clone(), proptest::option::weighted(0.5, (0..AXES, 1u64..=120)))
             .prop_map(|(q, offset, boot_lost)| Start::Fresh { q, offset, boot_lost }),
+        1 => (q, off, axis()).prop_map(move |(mut q, offset, j)| {
+            q[j] = past(j);
+            Start::Fresh { q, offset, boot_lost: None }
+        }),
     ]
     .boxed()
 }

@@ -232,4 +232,7 @@ impl<S: Variant> Driver for Sut<S> {
     fn state(&self) -> State {
         self.k.state()
     }
+    fn phases(&self) -> [kernel::homing::Phase; AXES] {
+        self.k.homing_phases()
+    }
 }
