@@ -64,7 +64,18 @@ build() { # $1 = workspace root, $2 = target dir
   (cd "$1" && CARGO_TARGET_DIR="$2" RUSTFLAGS="--remap-path-prefix=$1=/parol6" \
      cargo +"$TC" build --locked --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
        ${FEATURES:+--features "$FEATURES"})
+  stamp_crc "$2/$TARGET/release/parol6"
 }
+
+# --- image CRC stamp (firmware::image): every build's ELF gets the CRC-32
+# of its flash image, which the image checks at boot before its tick
+# starts. Stamping is deterministic and idempotent (the stamped words are
+# zero in the computation), so both builds of the reproducibility check
+# are stamped alike.
+stamp_crc() { # $1 = ELF, stamped in place
+  python3 "$ROOT/firmware/tools/stamp_crc.py" "$1"
+}
+# --- end of the image CRC stamp
 
 echo "== build (rustc $TC, release, $TARGET${FEATURES:+, features=$FEATURES})"
 build "$ROOT" "$CARGO_TARGET_DIR"

@@ -10,6 +10,7 @@
 //! * [`root`]: the composition root (tick half and main-loop half);
 //! * [`board`]: the board interface the root is generic over;
 //! * [`flow`]: the tick's program-flow check that gates the watchdog refresh;
+//! * [`image`]: the image's CRC check at boot;
 //! * [`tx`]: the transmit ring with counted, reported drops;
 //! * [`sense`]: HAL readings -> [`kernel::Sense`];
 //! * [`act`]: kernel step rates -> `hal_imxrt` step commands (all or none);
@@ -22,6 +23,7 @@
 
 pub mod board;
 pub mod flow;
+pub mod image;
 pub mod root;
 pub mod tx;
 

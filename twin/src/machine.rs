@@ -125,6 +125,10 @@ impl Twin {
         uc.mem_map(FAST_GPIO, 0x1_0000, Prot::READ | Prot::WRITE).map_err(e)?;
         uc.mem_map(SENTINEL, 0x1000, Prot::ALL).map_err(e)?;
         uc.mem_write(SENTINEL, &[0xFE, 0xE7]).map_err(e)?; // b .
+                                                           // erased NOR flash reads 0xFF: the bytes between the image's
+                                                           // sections, as the Teensy loader leaves them (the image's CRC at
+                                                           // boot covers them)
+        uc.mem_write(FLASH, &vec![0xFF; 8 * 1024 * 1024]).map_err(e)?;
         for s in &image.segments {
             uc.mem_write(u64::from(s.paddr), &s.data).map_err(e)?;
         }

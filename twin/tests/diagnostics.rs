@@ -258,3 +258,61 @@ fn program_flow_repeated_step_resets() {
         assert_rebooted_with_fault(&t);
     }
 }
+
+/// The flash address of the image byte that runs (or is read) at `vaddr`.
+fn load_address(t: &Twin, vaddr: u32) -> u32 {
+    let s = t
+        .image
+        .segments
+        .iter()
+        .find(|s| s.paddr >= 0x6000_0000 && (s.vaddr..s.vaddr + s.data.len() as u32).contains(&vaddr))
+        .expect("loaded from flash");
+    s.paddr + (vaddr - s.vaddr)
+}
+
+/// Image CRC: one bit of the loaded image flipped in flash before power-on
+/// (in the tick's code, which boot copies to ITCM; in a constant of
+/// `.rodata`; in the stamped CRC itself): the image refuses to run. It
+/// prints `FAULT HARDWARE IMAGE_CRC` on Serial1, never starts the tick
+/// (no PIT interrupt, no banner), never resets, and no STEP pin pulses
+/// although `<HOME>` is sent.
+/// Fails on an image without the check (it boots and ticks).
+#[test]
+fn image_crc_one_bit_flipped_refuses_to_run() {
+    let probe = boot_twin().unwrap();
+    let code = load_address(&probe, step_fn(&probe, "kernel_step") + 8);
+    let rodata = probe.image.segments.iter().filter(|s| s.paddr >= 0x6000_0000).max_by_key(|s| s.paddr).unwrap();
+    let constant = rodata.paddr + rodata.data.len() as u32 / 2;
+    let stamp_crc = probe.symbol("PAROL6_IMAGE_STAMP").map(|a| a + 8);
+    drop(probe);
+    let mut cases = vec![("tick code", code, 3u8), ("constant", constant, 0)];
+    if let Some(a) = stamp_crc {
+        cases.push(("stamped CRC", a, 7));
+    }
+    for (what, addr, bit) in cases {
+        let mut t = boot_twin().unwrap();
+        let mut b = [0u8; 1];
+        t.uc.mem_read(u64::from(addr), &mut b).unwrap();
+        b[0] ^= 1 << bit;
+        t.uc.mem_write(u64::from(addr), &b).unwrap();
+        run(&mut t, 100);
+        t.board_mut().serial_send(b"<HOME>\n");
+        run(&mut t, 250);
+        let text = t.board().serial_text();
+        let at = text.find("FAULT HARDWARE IMAGE_CRC");
+        assert!(at.is_some(), "{what} at {addr:#x}: no IMAGE_CRC fault line: {text:?}");
+        assert!(!text.contains("BOOT PAROL6"), "{what}: banner: {text:?}");
+        assert_eq!(t.stats.pit_calls, 0, "{what}: the tick ran");
+        assert_eq!(t.stats.watchdog_resets, 0, "{what}: reset");
+        let lines = text.matches("FAULT HARDWARE IMAGE_CRC").count();
+        assert!(lines >= 2, "{what}: {lines} fault lines in 250 ms");
+        assert_eq!(t.board().step_pulses(), [0; 6], "{what}: STEP pulses after <HOME>");
+        let out = &t.board().uart.tx_out;
+        let first_byte = out.first().map(|(c, _)| *c as f64 / MS as f64).unwrap();
+        let line_done = out.iter().find(|(_, b)| *b == b'\n').map(|(c, _)| *c as f64 / MS as f64).unwrap();
+        assert!(line_done < 16.0, "{what}: fault line complete {line_done} ms after power-on");
+        println!(
+            "{what}: bit {bit} at {addr:#x} flipped: IMAGE_CRC line from {first_byte:.2} to {line_done:.2} ms after power-on, {lines} in 250 ms, no tick"
+        );
+    }
+}

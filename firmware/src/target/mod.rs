@@ -48,7 +48,8 @@ use hal_imxrt::pure::pins::PinMap;
 use hal_imxrt::pure::step::StepCommand;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
-use firmware::board::TickBoard;
+use firmware::board::{Port, TickBoard};
+use firmware::image::{covered_len, ImageFault, Stamp};
 use firmware::root::{self, BootReport, Controller, Host, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use protocol::report::config_fingerprint;
@@ -274,6 +275,16 @@ fn main() -> ! {
         led_on(&inst.IOMUXC, &unsafe_gpio2());
     }
 
+    // --- the image's CRC (firmware::image), before the tick exists: a
+    // corrupt or half-written image never starts it.
+    if image_check().is_err() {
+        #[cfg(not(feature = "serial1"))]
+        let proto = port::Usb::new(inst.USB1, inst.USBPHY1, inst.USBNC1);
+        #[cfg(feature = "serial1")]
+        let proto = port::Uart::new(serial1);
+        refuse_to_run(proto, &wdog, &cycles)
+    }
+
     // --- the root, built in its statics by a separate function so that its
     // temporaries leave the stack before the main loop runs (built inline,
     // `main`'s frame reserved 15-16 KiB of the 16 KiB stack and the first
@@ -415,6 +426,62 @@ fn unsafe_gpio2() -> ral::gpio::GPIO2 {
     // GDIR bit 3 (LED, owned by no driver) are touched through this alias,
     // at boot before interrupts are enabled.
     unsafe { ral::gpio::GPIO2::instance() }
+}
+
+/// The image's CRC stamp (`firmware::image`): in flash (`.xip`, whose run
+/// address is its load address), written after the link by
+/// `firmware/build.sh` (`firmware/tools/stamp_crc.py`, which finds it by
+/// this symbol name).
+#[unsafe(link_section = ".xip.parol6_stamp")]
+#[unsafe(no_mangle)]
+#[used]
+static PAROL6_IMAGE_STAMP: Stamp = Stamp::UNSTAMPED;
+
+/// FlexSPI flash, memory-mapped: the image's first byte.
+const FLASH_BASE: usize = 0x6000_0000;
+
+/// Recomputes the image's CRC from flash and compares it with the stamp.
+fn image_check() -> Result<(), ImageFault> {
+    let p = core::ptr::addr_of!(PAROL6_IMAGE_STAMP);
+    // SAFETY: `p` points at a live, aligned static; read volatile because
+    // its value in flash is the stamping tool's, not the compiled constant
+    // the optimiser would otherwise substitute.
+    let stamp = unsafe { core::ptr::read_volatile(p) };
+    let offset = (p as usize).wrapping_sub(FLASH_BASE);
+    let len = covered_len(&stamp, offset)?;
+    // SAFETY: the FlexSPI flash is mapped read-only from `FLASH_BASE` over
+    // the 1984 KiB linked region; `covered_len` bounds `len` by it
+    // (`IMAGE_MAX`), so the slice lies inside mapped memory that nothing
+    // writes while the image runs.
+    let image = unsafe { core::slice::from_raw_parts(FLASH_BASE as *const u8, len) };
+    firmware::image::check(image, &stamp, offset)
+}
+
+/// The image failed its CRC check: the tick never starts, the outputs stay
+/// as boot set them (STEP masked low, DIR low), and the protocol port
+/// carries `FAULT HARDWARE IMAGE_CRC` every 200 ms. The watchdog is
+/// refreshed every millisecond (outside its window) so that the chip stays
+/// here, saying why, instead of resetting into the same check every 20 ms.
+fn refuse_to_run<P: Port>(mut proto: P, wdog: &Watchdog, cycles: &CycleCounter) -> ! {
+    const LINE: &[u8] = b"FAULT HARDWARE IMAGE_CRC\n";
+    const EVERY_MS: u32 = 200;
+    let mut ms: u32 = EVERY_MS;
+    let mut sent = LINE.len();
+    loop {
+        let t = cycles.now();
+        cycles.wait_since(t, CYCLES_PER_MS);
+        wdog.feed();
+        proto.poll();
+        ms = ms.saturating_add(1);
+        if ms >= EVERY_MS && sent == LINE.len() {
+            ms = 0;
+            sent = 0;
+        }
+        if sent < LINE.len() && proto.is_open() {
+            let n = proto.write(LINE.get(sent..).unwrap_or(&[]));
+            sent = sent.saturating_add(n).min(LINE.len());
+        }
+    }
 }
 
 /// Unrecoverable boot error: outputs are still masked; stop here and let
