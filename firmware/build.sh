@@ -3,11 +3,14 @@
 #
 #   firmware/build.sh            # release image + sizes + tick stack + panic check + reproducibility
 #   FEATURES=serial1 firmware/build.sh   # protocol on Serial1 (pins 0/1) instead of USB CDC
-#   SKIP_REPRO=1 firmware/build.sh       # skip the second (reproducibility) build
+#   SKIP_REPRO=1 firmware/build.sh       # skip the determinism check (re-links, second directory)
+#   REPRO_RELINKS=10 firmware/build.sh   # re-link the image 10 times instead of 5
 #
 # Writes target/firmware/parol6.elf and parol6.hex (Intel HEX for
 # `teensy_loader_cli --mcu=TEENSY41`). Exits non-zero if the build fails, if
-# a panic path is reachable from the tick handler, or if the two builds differ.
+# a panic path is reachable from the tick handler, if the ELF names a path of
+# this machine, or if any re-link or the build in a second directory gives a
+# different .elf or .hex.
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$ROOT"
@@ -60,8 +63,19 @@ if [ "${IMAGE_SIZE_OPT:-0}" = 1 ]; then
                  --config 'profile.release.package.protocol.opt-level="z"')
 fi
 
+# Paths of this machine that the compiler would otherwise write into the
+# ELF's debug information (the .hex has none): the workspace, the cargo home
+# (every registry crate's sources, 71 paths) and the toolchain (its std
+# sources are already /rustc/<commit>/ in the shipped rlibs; remapped in case
+# a build uses rust-src). The release image then is the same file on any
+# machine with the pinned toolchain, whoever builds it and wherever.
+SYSROOT="$(rustc +"$TC" --print sysroot)"
+CARGO_HOME_DIR="$(cd "${CARGO_HOME:-$HOME/.cargo}" && pwd -P)"
 build() { # $1 = workspace root, $2 = target dir
-  (cd "$1" && CARGO_TARGET_DIR="$2" RUSTFLAGS="--remap-path-prefix=$1=/parol6" \
+  # CARGO_ENCODED_RUSTFLAGS (0x1f-separated): a path with a space stays one flag.
+  local sep=$'\x1f'
+  (cd "$1" && CARGO_TARGET_DIR="$2" \
+     CARGO_ENCODED_RUSTFLAGS="--remap-path-prefix=$1=/parol6$sep--remap-path-prefix=$CARGO_HOME_DIR=/cargo$sep--remap-path-prefix=$SYSROOT=/rust" \
      cargo +"$TC" build --locked --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
        ${FEATURES:+--features "$FEATURES"})
   stamp_crc "$2/$TARGET/release/parol6"
@@ -142,22 +156,81 @@ fi
 PANIC_RC=0
 python3 "$ROOT/firmware/tools/tick_analysis.py" "$OBJDUMP" "$OUT/parol6.elf" PIT $STACK_ELF || PANIC_RC=$?
 
+echo "== no path of this machine in the ELF"
+# (grep -a rather than strings(1): binutils is not needed for the build)
+RUSTUP_HOME_DIR="${RUSTUP_HOME:-$HOME/.rustup}"
+LEAKS="$(grep -a -o -F -e "$ROOT/" -e "$CARGO_HOME_DIR/" -e "$RUSTUP_HOME_DIR/" -e "$SYSROOT/" "$OUT/parol6.elf" | sort | uniq -c || true)"
+PATH_RC=0
+if [ -n "$LEAKS" ]; then echo "FAIL: the ELF names paths of this machine:"; echo "$LEAKS"; PATH_RC=1; else echo "none ($ROOT, $CARGO_HOME_DIR, $RUSTUP_HOME_DIR remapped)"; fi
+
+# Determinism. The image must be the same file every time it is built from
+# the same sources: re-linked in the same directory (this is where a
+# run-to-run difference inside the compiler shows: each re-link recompiles
+# the image crate, whose LLVM optimisation and fat LTO then run again), and
+# built from scratch in a second directory of another path length under
+# another umask. Every .elf and .hex must equal the first build's.
+#
+# A known cause, and how code avoids it: LLVM 22.1.2 (rustc 1.95.0), fully
+# unrolling a loop with two exits -- a `zip` over an array moved into its
+# by-value iterator (`cal.iter_mut().zip(snaps)` in a boot calibration of
+# the encoder decoders) -- puts the incoming values of a loop-exit phi in
+# an order that depends on heap addresses. Address-space randomisation and
+# rustc's threads make those differ from run to run, so the image crate's
+# code came out in one of two forms (init_root: two store pairs swapped),
+# about half the time each. Found with -C save-temps (the image crate's
+# unoptimised bitcode is always the same, its optimised bitcode is not) and
+# -opt-bisect-limit on that bitcode: the toolchain's own
+# `opt -passes='lto-pre-link<O3>'` gives two outputs (one with ASLR off),
+# and the first pass whose result varies is loop-unroll-full on that loop.
+# No stable rustc flag controls it (codegen-units is already 1, release
+# builds are not incremental, the parallel front end and -Z threads are
+# nightly-only, and ASLR off is not enough with rustc's threads: 4 and 4 of
+# 8 re-links), so such a loop iterates the array by reference
+# (`zip(snaps.iter())`: 10 re-links, one image); the repeated re-links
+# below are what catch the next one (the by-value form fails them).
 REPRO_RC=0
+REPRO_RELINKS="${REPRO_RELINKS:-5}"
 if [ -z "${SKIP_REPRO:-}" ]; then
-  echo "== reproducibility: second build in another directory"
+  ELF_REF="$(sha256sum <"$OUT/parol6.elf" | cut -c1-64)"
+  HEX_REF="$(sha256sum <"$OUT/parol6.hex" | cut -c1-64)"
+  echo "reference: elf ${ELF_REF:0:16} hex ${HEX_REF:0:16}"
+  same() { # $1 = ELF, $2 = label: compare with the reference build
+    local e h
+    "$OBJCOPY" -O ihex "$1" "$OUT/parol6.repro.hex"
+    e="$(sha256sum <"$1" | cut -c1-64)"; h="$(sha256sum <"$OUT/parol6.repro.hex" | cut -c1-64)"
+    if [ "$e" = "$ELF_REF" ] && [ "$h" = "$HEX_REF" ]; then
+      echo "$2: elf ${e:0:16} hex ${h:0:16} same"
+    else
+      echo "$2: elf ${e:0:16} hex ${h:0:16} DIFFERENT"; REPRO_RC=1
+    fi
+  }
+  echo "== determinism: $REPRO_RELINKS re-links in $ROOT"
+  for i in $(seq 1 "$REPRO_RELINKS"); do
+    touch "$ROOT/firmware/src/main.rs"
+    if build "$ROOT" "$CARGO_TARGET_DIR" >/dev/null 2>"$OUT/relink.log"; then
+      same "$ELF" "re-link $i"
+    else
+      echo "re-link $i failed (see $OUT/relink.log)"; REPRO_RC=1; break
+    fi
+  done
+  # the last re-link is what the target dir holds: it must equal $OUT's copy
+  echo "== determinism: a build from scratch in another directory, another path length and umask"
   TMP="$(mktemp -d /tmp/parol6-repro.XXXXXX)"
-  # (twin/target: the twin's own build, hundreds of MB, not part of the image)
-  tar -C "$ROOT" --exclude=./target --exclude=./twin/target --exclude=.git -cf - . | tar -C "$TMP" -xf -
-  build "$TMP" "$TMP/target" >/dev/null 2>"$OUT/repro-build.log" || { echo "second build failed (see $OUT/repro-build.log)"; REPRO_RC=1; }
-  if [ "$REPRO_RC" = 0 ]; then
-    "$OBJCOPY" -O ihex "$TMP/target/$TARGET/release/parol6" "$OUT/parol6.repro.hex"
-    H1="$(sha256sum "$OUT/parol6.hex" | cut -d' ' -f1)"; H2="$(sha256sum "$OUT/parol6.repro.hex" | cut -d' ' -f1)"
-    echo "sha256 $ROOT build: $H1"
-    echo "sha256 $TMP build: $H2"
-    if [ "$H1" = "$H2" ]; then echo "reproducible: yes"; else echo "reproducible: NO"; REPRO_RC=1; fi
+  DIR="$TMP/w"
+  while [ "${#DIR}" = "${#ROOT}" ]; do DIR="${DIR}x"; done
+  mkdir -p "$DIR"
+  if [ "$(umask)" = 0077 ]; then MASK=0022; else MASK=0077; fi
+  # (twin/ and emu/ targets: their own builds, hundreds of MB, not part of the image)
+  tar -C "$ROOT" --exclude=./target --exclude=./twin/target --exclude=./emu/target --exclude=.git -cf - . \
+    | (umask "$MASK" && tar -C "$DIR" --no-same-permissions -xf -)
+  if (umask "$MASK" && build "$DIR" "$DIR/target") >/dev/null 2>"$OUT/repro-build.log"; then
+    same "$DIR/target/$TARGET/release/parol6" "$DIR (umask $MASK)"
+  else
+    echo "second build failed (see $OUT/repro-build.log)"; REPRO_RC=1
   fi
   rm -rf "$TMP"
+  if [ "$REPRO_RC" = 0 ]; then echo "deterministic: yes (1 + $REPRO_RELINKS re-links + 1 other directory)"; else echo "deterministic: NO"; fi
 fi
 
 if [ "$PANIC_RC" != 0 ]; then echo "FAIL: panic path reachable from the tick handler (see above)"; fi
-[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ]
+[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ] && [ "$PATH_RC" = 0 ]
