@@ -50,11 +50,14 @@ PYTHONDONTWRITEBYTECODE=1 python3 -m unittest discover -s docs/safety -p 'test_*
 step "kernel and protocol for the Cortex-M7"
 cargo build -p kernel -p protocol --target thumbv7em-none-eabihf --release --locked
 
-step "firmware image: .elf/.hex, sizes, tick stack, no panic path from the tick, reproducible"
+step "firmware image: .elf/.hex, sizes, tick stack, no panic path from the tick, deterministic (5 re-links, a second directory)"
 firmware/build.sh
 
 step "tick_analysis.py seeded-defect self-test (a panic path and a 64-bit division must fail, a clean root pass)"
 firmware/tools/tick_analysis_selftest.sh
+
+step "firmware/flash.sh: every exit path (stub tools, fake sysfs)"
+firmware/tests/flash_sh.sh
 
 step "Cortex-M7 emulation (QEMU mps2-an500): host vs target traces bit for bit"
 EMU_TARGET_DIR="$ROOT/target/emu" emu/test.sh
