@@ -4,13 +4,11 @@
 //! A new target sets the goal and a cruising speed: for a stream sample,
 //! the distance over the *typical* interval between samples (the kernel
 //! passes the median of recent intervals, bounded to the configured range,
-//! so a dropped packet does not stretch the motion, as it did in the C++
-//! firmware); for a point-to-point move, the joint's speed limit. Every tick
-//! the set-point's velocity changes by at most `dv = max_acceleration / tick_hz`
+//! so a dropped packet does not stretch the motion); for a point-to-point
+//! move, the joint's speed limit. Every tick the set-point's velocity
+//! changes by at most `dv = a / tick_hz` (`a`: the profile's acceleration)
 //! and a speed is taken only if the set-point can still stop **at** the
-//! target from it, decelerating by `dv` per tick. So the set-point never
-//! passes a target it is moving toward, and the arm stops where it was told,
-//! never beyond (`SAFETY.md` SR-18).
+//! target from it, decelerating by `dv` per tick.
 //!
 //! The braking test. From speed `c` (toward the target), decelerating by
 //! `dv` per tick covers `S(c) = dt * sum_k (c - k dv)+`. Writing
@@ -24,15 +22,31 @@
 //! `I8F24` keeps its precision; per-tick quantities (`c dt`) are formed once.
 //!
 //! A target inside the set-point's braking distance (a stream sample that
-//! moved back) cannot be met: the set-point decelerates through it and comes
-//! back, within the braking distance of the earlier target, which was
-//! reachable and validated.
+//! moved back) cannot be met without passing it: the set-point decelerates
+//! through it and comes back.
+//!
+//! **The set-point guarantee** (`SAFETY.md` SR-18) holds by construction:
+//! each accepted target fixes the interval the set-point may occupy until
+//! the next one ([`Interpolator::retarget`]): the interval spanned by the
+//! set-point at acceptance, the target, and the set-point's stopping point
+//! ([`Interpolator::stop_point`], an upper bound of where braking at `dv`
+//! per tick ends: `|v| dt + S(|v|) + eps`) clamped into the previous
+//! interval; every tick's set-point is clamped into it
+//! ([`Interpolator::advance`]). So (G1) the set-point never leaves the
+//! interval spanned by its position when last at rest and every target
+//! accepted since, and (G2) it passes its current target only when that
+//! target lay inside the stopping distance at acceptance, and then by at
+//! most that stopping distance's excess over the target. The braking test
+//! keeps the clamp from binding (but by rounding): the clamp adds no
+//! velocity change (checked on every tick of every test by the monitor's
+//! SR-27 check).
 //!
 //! The final approach lands exactly on the target with one step no larger
 //! than `dv dt` (plus `eps`), so the set-point stops with a velocity change
 //! of at most `dv` (plus `eps / dt`, under 1 % of `dv` for the PAROL6).
 //! The feed-forward velocity is the set-point's velocity: zero at rest.
 
+use crate::config::JointConfig;
 use crate::scalar::Scalar;
 
 /// Per-axis constants of the profile, in the kernel's scalar type.
@@ -68,28 +82,61 @@ pub struct Interpolator<S> {
     vel: S,
     /// Cruising speed toward the target (rad/s, >= 0).
     speed: S,
+    /// The interval the set-point may occupy until the next target (the
+    /// guarantee's fence: `lo <= hi`).
+    lo: S,
+    hi: S,
 }
 
 impl<S: Scalar> Interpolator<S> {
     /// Holds position `p` at rest (re-synchronisation to a measured
     /// position).
     pub fn hold(p: S) -> Self {
-        Interpolator { sp: p, target: p, vel: S::ZERO, speed: S::ZERO }
+        Interpolator { sp: p, target: p, vel: S::ZERO, speed: S::ZERO, lo: p, hi: p }
     }
 
     /// A generator in any state: set-point `sp`, target, velocity `vel`
-    /// (rad/s) and cruising speed. [`Self::advance`] is total over every
+    /// (rad/s) and cruising speed, free to move over the whole plausible
+    /// range (`+-POSITION_ABS_MAX`). [`Self::advance`] is total over every
     /// state; this is how the proofs start from a symbolic one.
     pub fn from_parts(sp: S, target: S, vel: S, speed: S) -> Self {
-        Interpolator { sp, target, vel, speed: speed.abs() }
+        let wide = S::from_f32(crate::config::POSITION_ABS_MAX);
+        Self::from_parts_within(sp, target, vel, speed, wide.neg(), wide)
+    }
+
+    /// [`Self::from_parts`] with the guarantee's interval `[lo, hi]`.
+    pub fn from_parts_within(sp: S, target: S, vel: S, speed: S, lo: S, hi: S) -> Self {
+        Interpolator { sp, target, vel, speed: speed.abs(), lo, hi }
     }
 
     /// Moves toward `target` at a cruising speed of at most `speed` (rad/s,
     /// `>= 0`; it is bounded to the profile's speed limit when used). The
-    /// current set-point and velocity carry over: no step in either.
-    pub fn retarget(&mut self, target: S, speed: S) {
+    /// current set-point and velocity carry over: no step in either. The
+    /// set-point's interval becomes the one spanned by the set-point, the
+    /// target and the stopping point (clamped into the previous interval).
+    pub fn retarget(&mut self, target: S, speed: S, k: &Profile<S>) {
+        let stop = self.stop_point(k).clamp_between(self.lo, self.hi);
+        let sp = self.sp;
+        self.lo = sp.min(stop).min(target);
+        self.hi = sp.max(stop).max(target);
         self.target = target;
         self.speed = speed.abs();
+    }
+
+    /// An upper bound of where the set-point comes to rest if it brakes
+    /// now, by `dv` per tick: `|v| dt + S(|v|)` (the braking bound plus
+    /// `eps`) along its velocity; the set-point itself at rest.
+    pub fn stop_point(&self, k: &Profile<S>) -> S {
+        let c = self.vel.abs();
+        let brake = c.times(c).times(k.inv_2a).minus(c.times(k.half_dt)).plus(k.brake_slack).plus(k.eps);
+        let d = c.times(k.dt).plus(brake.max(S::ZERO));
+        let d = S::select(c > S::ZERO, d, S::ZERO);
+        S::select(self.vel < S::ZERO, self.sp.minus(d), self.sp.plus(d))
+    }
+
+    /// The interval the set-point may occupy until the next target.
+    pub fn bounds(&self) -> (S, S) {
+        (self.lo, self.hi)
     }
 
     /// Advances one tick; returns `(set-point, set-point velocity)`.
@@ -134,7 +181,9 @@ impl<S: Scalar> Interpolator<S> {
         let vel = S::select(negative, c.neg(), c);
 
         let landed_vel = S::select(negative, land.neg(), land);
-        self.sp = S::select(can_land, self.target, moved);
+        // The guarantee's clamp (binds only by rounding: see the module);
+        // `lo <= hi` always (`retarget`), so no reordering.
+        self.sp = S::select(can_land, self.target, moved).max(self.lo).min(self.hi);
         self.vel = S::select(can_land, landed_vel, vel);
         (self.sp, self.vel)
     }
@@ -166,6 +215,15 @@ impl<S: Scalar> Interpolator<S> {
     pub fn at_rest(&self) -> bool {
         self.sp == self.target && self.vel == S::ZERO
     }
+}
+
+/// The profile of joint `j` at `tick_hz`, the one the kernel runs: its
+/// speed limit and its set-point acceleration
+/// ([`JointConfig::setpoint_acceleration`]). The proofs, the sweeps and the
+/// monitor build theirs with this function (a test compares them with the
+/// kernel's, [`crate::Kernel::profile`]).
+pub fn joint_profile<S: Scalar>(j: &JointConfig, tick_hz: u32) -> Profile<S> {
+    profile(j.max_velocity, j.setpoint_acceleration(), tick_hz)
 }
 
 /// The profile of a joint with speed limit `vmax` and acceleration `amax`
@@ -200,7 +258,7 @@ mod tests {
     fn run<S: Scalar>(from: f32, to: f32, speed: f32, vmax: f32, amax: f32) -> (u32, f32) {
         let k = profile::<S>(vmax, amax, 1000);
         let mut it = Interpolator::hold(S::from_f32(from));
-        it.retarget(S::from_f32(to), S::from_f32(speed));
+        it.retarget(S::from_f32(to), S::from_f32(speed), &k);
         let (lo, hi) = (from.min(to), from.max(to));
         let dv = amax / 1000.0;
         let mut prev_v = 0.0f32;
@@ -284,7 +342,7 @@ mod tests {
                 let mut prev = f32::NAN;
                 run_it(&mut |t, v| {
                     if t != prev {
-                        ip.retarget(t, v);
+                        ip.retarget(t, v, &k);
                         prev = t;
                     }
                     ip.advance(&k).0
@@ -295,7 +353,7 @@ mod tests {
                 let mut prev = f32::NAN;
                 run_it(&mut |t, v| {
                     if t != prev {
-                        ip.retarget(Fx::from_f32(t), Fx::from_f32(v));
+                        ip.retarget(Fx::from_f32(t), Fx::from_f32(v), &k);
                         prev = t;
                     }
                     ip.advance(&k).0.to_f32()
@@ -326,16 +384,16 @@ mod tests {
                         (p.to_f32(), v.to_f32())
                     }
                 };
-                a.retarget(0.3 * dir, 6.0);
-                b.retarget(Fx::from_f32(0.3 * dir), Fx::from_num(6));
+                a.retarget(0.3 * dir, 6.0, &k);
+                b.retarget(Fx::from_f32(0.3 * dir), Fx::from_num(6), &kx);
                 let (mut sp, mut v) = (0.0, 0.0);
                 for _ in 0..40 {
                     (sp, v) = adv(&mut a, &mut b);
                 }
                 assert!(v.abs() > 2.0, "{v}");
                 let t = sp + 0.004 * dir;
-                a.retarget(t, 0.4);
-                b.retarget(Fx::from_f32(t), Fx::from_f32(0.4));
+                a.retarget(t, 0.4, &k);
+                b.retarget(Fx::from_f32(t), Fx::from_f32(0.4), &kx);
                 let mut past = 0.0f32;
                 for n in 0..2000 {
                     let (sp2, v2) = adv(&mut a, &mut b);
@@ -361,13 +419,13 @@ mod tests {
     fn a_reversal_decelerates_through_zero() {
         let k = profile::<f32>(6.0, 60.0, 1000);
         let mut it = Interpolator::hold(0.0f32);
-        it.retarget(1.0, 6.0);
+        it.retarget(1.0, 6.0, &k);
         for _ in 0..100 {
             it.advance(&k);
         }
         let v0 = it.velocity();
         assert!(v0 > 5.0, "{v0}");
-        it.retarget(0.0, 6.0);
+        it.retarget(0.0, 6.0, &k);
         let mut prev = v0;
         for _ in 0..2000 {
             let (_, v) = it.advance(&k);

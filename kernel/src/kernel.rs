@@ -233,6 +233,12 @@ impl<S: Scalar> Kernel<S> {
         }
     }
 
+    /// Joint `axis`'s set-point profile (what its interpolator runs), or
+    /// `None` for no such joint.
+    pub fn profile(&self, axis: usize) -> Option<crate::interp::Profile<S>> {
+        self.p.axes.get(axis).map(|a| a.profile)
+    }
+
     /// Set-points to the measured positions, timeout disarmed, no history.
     /// Also called on entering Homing and Fault, where nothing reads them, so
     /// no stale set-point or interval survives a mode change.

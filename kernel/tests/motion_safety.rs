@@ -207,8 +207,12 @@ fn home_while_moving_stops_first<S: Scalar>() {
 fn home_in_a_latched_state_is_refused<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
-    p[0] += 0.3;
-    r.motion(p);
+    // A first sample within the set-point's reach from rest, then one a
+    // longest segment's travel on (SR-30): 0.14 rad in all.
+    p[0] += 0.04;
+    assert!(r.motion(p).events.is_empty());
+    p[0] += 0.1;
+    assert!(r.motion(p).events.is_empty());
     r.run(5);
     // Interrupted while its set-point still travels: latched.
     r.run_until(1_000, |o| o.status.state == State::SoftEstop).expect("latches");
@@ -262,10 +266,13 @@ fn a_timeout_at_rest_holds_and_the_next_command_continues<S: Scalar>() {
 fn a_timeout_while_moving_still_latches<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = stream(&mut r, 0, 2.0, 20);
-    // The last sample 0.25 rad further: the set-point is still on its way
-    // 100 ms later.
-    p[0] += 0.25;
-    assert!(r.motion(p).events.is_empty());
+    // Two last samples 0.12 rad further each (in a burst: each within a
+    // longest segment's travel of the one before, SR-30): the set-point
+    // is still on its way 100 ms later.
+    for _ in 0..2 {
+        p[0] += 0.12;
+        assert!(r.motion(p).events.is_empty());
+    }
     let n = r.run_until(300, |o| o.status.state == State::Stopping).expect("soft stop");
     assert!(r.events.iter().any(|e| matches!(e, Event::SoftEstop { cause: StopCause::CommandTimeout { .. } })));
     assert!(n <= 100, "{n}");
@@ -379,10 +386,11 @@ fn runs_at_500_hz_and_2_khz<S: Scalar>() {
         let t = r.run_until(hz, |o| o.events.iter().any(|e| *e == Event::Holding)).expect("holds") + hz / 100 - 1;
         let t_ms = f64::from(t) * 1000.0 / f64::from(hz);
         assert!((95.0..=110.0).contains(&t_ms), "{hz} Hz: held after {t_ms} ms");
-        // One far sample (its set-point still travelling at the timeout)
-        // latches 100 ms after it.
+        // Samples to 0.3 rad away in a burst (continuous by SR-30; the
+        // set-point still travelling at the timeout) latch 100 ms after the
+        // last.
         q[0] -= 0.3;
-        r.motion(q);
+        r.stream_to(q);
         let t = r.run_until(hz, |o| o.status.state == State::Stopping).expect("soft stop");
         let t_ms = f64::from(t) * 1000.0 / f64::from(hz);
         assert!((95.0..=110.0).contains(&t_ms), "{hz} Hz: soft stop after {t_ms} ms");

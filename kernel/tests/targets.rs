@@ -166,26 +166,26 @@ fn a_far_stream_sample_is_refused_as_a_jump<S: Scalar>() {
     assert!(out.act.velocity.iter().all(|v| v.abs().to_f32() < 0.01));
     // A sample within one segment's travel is taken.
     let mut near = r.plant.q;
-    near[0] += 0.1;
+    near[0] += 0.04;
     assert!(r.motion(near).events.is_empty());
 }
 
-/// PROTOCOL.md 6.3: a stream sample "farther from the current set-point
-/// (and from the previous target) than one segment can travel (the speed
-/// limit times the longest segment, plus the braking distance from the speed
-/// limit, plus `target_jump_tolerance`)" is refused: one exactly that far is
-/// accepted, and one a step farther is refused. Fixed-point only: its sums
-/// are exact, so the sample lies exactly that far from the set-point (in
-/// `f32`, `sp + d - sp` need not be `d`). Catches: the jump test's `>` as
-/// `>=`.
+/// PROTOCOL.md 6.3: a first stream sample from rest is accepted within the
+/// set-point's reach over one longest segment (`max_acceleration T^2 / 2`
+/// plus `target_jump_tolerance`), and the next within the speed limit over
+/// one longest segment of it (plus the tolerance): one exactly that far is
+/// accepted, one a step farther refused. Fixed-point only: its sums are
+/// exact, so the sample lies exactly that far (in `f32`, `sp + d - sp` need
+/// not be `d`). Survivors: each bound's `<=` as `<`.
 fn a_stream_sample_exactly_one_segment_away_is_accepted<S: Scalar>() {
     let mut r = homed::<S>();
     for j in [0usize, 3] {
         let c = &PAROL6.joints[j];
-        let seg_s = ms_to_ticks(PAROL6.segment_max_ms, PAROL6.tick_hz) as f32 / PAROL6.tick_hz as f32;
-        let d = S::from_f32(
-            c.max_velocity * seg_s + c.setpoint_braking_distance(c.max_velocity) + PAROL6.target_jump_tolerance,
-        );
+        let seg = ms_to_ticks(PAROL6.segment_max_ms, PAROL6.tick_hz);
+        let seg_s = seg as f32 / PAROL6.tick_hz as f32;
+        let tol = S::from_f32(PAROL6.target_jump_tolerance);
+        let reach = S::from_f32(c.max_acceleration * seg_s * seg_s * 0.5).plus(tol);
+        let step = S::from_f32(c.max_velocity / PAROL6.tick_hz as f32).times_int(seg as i32).plus(tol);
         // At rest at a go-to's target: set-point and previous target agree.
         let mut p = r.plant.q;
         p[j] = 0.0;
@@ -198,16 +198,20 @@ fn a_stream_sample_exactly_one_segment_away_is_accepted<S: Scalar>() {
             t.position[j] = x;
             Request::Motion(t)
         };
-        let out = r.tick(Some(far(sp[j].plus(d).plus(S::from_f32(1e-4)))));
         let reason = Reject::TargetJump { axis: j as u8 };
-        assert!(
-            out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason }),
-            "J{}: {:?}",
-            j + 1,
-            out.events
-        );
-        let out = r.tick(Some(far(sp[j].minus(d))));
-        assert!(out.events.is_empty(), "J{} exactly one segment away: {:?}", j + 1, out.events);
+        let refused = |out: &kernel::TickOutput<S>| {
+            out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Motion, reason })
+        };
+        let lsb = S::from_f32(1e-4);
+        let out = r.tick(Some(far(sp[j].minus(reach).minus(lsb))));
+        assert!(refused(&out), "J{}: {:?}", j + 1, out.events);
+        let first = sp[j].minus(reach);
+        let out = r.tick(Some(far(first)));
+        assert!(out.events.is_empty(), "J{} exactly the reach away: {:?}", j + 1, out.events);
+        let out = r.tick(Some(far(first.minus(step).minus(lsb))));
+        assert!(refused(&out), "J{}: {:?}", j + 1, out.events);
+        let out = r.tick(Some(far(first.minus(step))));
+        assert!(out.events.is_empty(), "J{} exactly one segment from the last sample: {:?}", j + 1, out.events);
         // A go-to back (it replaces the stream's target and disarms the
         // command timeout); at rest again.
         let back = MotionTarget { position: sp, velocity: [S::ZERO; AXES], kind: MotionKind::GoTo };

@@ -53,7 +53,7 @@ fn command_timeout_soft_stops_monotonically_and_latches<S: Scalar>() {
         let dir = if PAROL6.joints[i].homing.direction.sign() > 0.0 { -1.0 } else { 1.0 };
         *x += dir * 0.25;
     }
-    assert!(r.motion(p).events.is_empty());
+    r.stream_to(p);
     let moving = r.last.unwrap().act.velocity;
     assert!(moving.iter().all(|v| v.abs().to_f32() > 0.5), "{moving:?}");
     // Silence: 100 ms of timeout, then the ramp.
@@ -99,7 +99,7 @@ fn enable_after_soft_stop_resyncs_without_a_jump<S: Scalar>() {
     // Far enough that the set-point still travels at the timeout (a
     // set-point at rest on its target holds: SR-29).
     p[0] += 0.3;
-    r.motion(p);
+    r.stream_to(p);
     r.run_until(1000, |o| o.status.state == State::SoftEstop).unwrap();
     let out = r.enable();
     assert!(out.events.iter().any(|e| *e == Event::Enabled(State::Operational)));
@@ -162,7 +162,7 @@ fn enable_while_stopping_is_refused_as_stopping<S: Scalar>() {
     let mut r = homed::<S>();
     let mut p = r.plant.q;
     p[0] += 0.2; // still on its way when the timeout expires
-    r.motion(p);
+    r.stream_to(p);
     r.run_until(200, |o| o.status.state == State::Stopping).expect("timeout");
     let out = r.enable();
     assert!(

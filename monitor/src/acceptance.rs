@@ -7,7 +7,7 @@ use kernel::{MotionKind, MotionTarget, Reject, Scalar, State};
 use crate::facts::{Sent, TickFacts};
 use crate::stats::inc;
 use crate::violation::{Checked, Sr};
-use crate::{f, Monitor, PROFILE_DECEL_MIN};
+use crate::{continuity, f, Monitor};
 
 /// The monitor's own verdict on a motion target (SR-17).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,25 +43,6 @@ pub fn validity<S: Scalar>(cfg: &ArmConfig, t: &MotionTarget<S>) -> Validity {
         Validity::Valid
     }
 }
-/// SR-30's slack (rad) on the jump distance: rounding of the kernel's
-/// distances and of its bound (f32 at |x| < 16: 2e-6; I8F24: 6e-8), with
-/// a wide margin.
-pub const JUMP_SLACK: f64 = 1e-4;
-
-/// SR-30: how far a stream sample may be from the set-point (or the
-/// previous target): one longest segment at the speed limit, the braking
-/// distance from it, and the configured tolerance (rad), as a band: the
-/// set-points brake at `max_acceleration` at most and at
-/// [`PROFILE_DECEL_MIN`] of it at least (the kernel may use a share of the
-/// output's limit), so the kernel's bound lies in `(low, high)`: a sample
-/// farther than `high` must be refused, one nearer than `low` accepted.
-pub fn max_jump(cfg: &ArmConfig, j: &kernel::config::JointConfig) -> (f64, f64) {
-    let vmax = f64::from(j.max_velocity);
-    let a = f64::from(j.max_acceleration);
-    let base = vmax * f64::from(cfg.segment_max_ms) / 1000.0 + f64::from(cfg.target_jump_tolerance);
-    (base + vmax * vmax / (2.0 * a), base + vmax * vmax / (2.0 * a * PROFILE_DECEL_MIN))
-}
-
 impl<S: Scalar> Monitor<S> {
     /// SR-15: refusals are reported against the request that was sent;
     /// no event is lost.
@@ -80,9 +61,9 @@ impl<S: Scalar> Monitor<S> {
     /// SR-15: motion is accepted only in Operational. SR-17: accepted
     /// targets are finite and within the limits, and a clearly valid
     /// target in Operational is accepted (or, a stream sample, refused as
-    /// a jump: SR-30). SR-30: a stream sample is accepted only within one
-    /// segment's travel of the set-point or of the previous target, and
-    /// refused as a jump only beyond it.
+    /// a jump: SR-30). SR-30: a stream sample is accepted only within the
+    /// previous sample's or the set-point's reach (`continuity`), and
+    /// refused as a jump only beyond both.
     pub(crate) fn check_acceptance(&mut self, t: &TickFacts<'_, S>) -> Checked {
         if matches!(t.rejected, Some((_, Reject::Internal))) {
             return Err(t.fail(Sr::Sr15, "a request refused for an internal limit (Reject::Internal)"));
@@ -95,13 +76,20 @@ impl<S: Scalar> Monitor<S> {
             if let Some(m) = m {
                 let verdict = validity(&self.cfg, m);
                 let reason = t.rejected.map(|r| r.1);
-                // (axis, distance, bound) of each axis, when the previous
-                // target is known.
-                let jump = |i: usize| -> Option<(f64, (f64, f64))> {
-                    let (j, p) = (self.cfg.joints.get(i)?, f(*m.position.get(i)?));
-                    let from_sp = (p - f(*self.prev_setpoint.get(i)?)).abs();
-                    let from_last = (p - f(*t.old_target?.get(i)?)).abs();
-                    Some((from_sp.min(from_last), max_jump(&self.cfg, j)))
+                // SR-30's judgement of each axis (`continuity`).
+                let jump = |i: usize| -> Option<continuity::Continuity> {
+                    let j = self.cfg.joints.get(i)?;
+                    let v = t.prev_sp_vel.and_then(|v| v.get(i).copied()).unwrap_or(0.0);
+                    let prev_target = t.old_target.and_then(|o| o.get(i).copied()).map_or(f64::NAN, f);
+                    let sample = continuity::Sample {
+                        live: self.prev_armed && t.prev == State::Operational,
+                        gap_ticks: t.gap,
+                        x: f(*m.position.get(i)?),
+                        prev: prev_target,
+                        sp: f(*self.prev_setpoint.get(i)?),
+                        v,
+                    };
+                    Some(continuity::judge(&self.cfg, j, &sample))
                 };
                 let stream = m.kind == MotionKind::Stream;
                 if t.motion_accepted {
@@ -110,13 +98,14 @@ impl<S: Scalar> Monitor<S> {
                         inc(&mut self.stats.goto_accepted);
                     }
                     for i in 0..AXES {
-                        if let (true, Some((d, (_, b)))) = (stream, jump(i)) {
+                        if let (true, Some(c)) = (stream, jump(i)) {
                             ensure!(
-                                d <= b + JUMP_SLACK,
-                                t.fail(Sr::Sr30, "stream sample beyond a segment's travel accepted")
-                                    .on(i)
-                                    .got(d)
-                                    .bound(b)
+                                c.possibly,
+                                t.fail(
+                                    Sr::Sr30,
+                                    "stream sample accepted beyond both the previous sample's and the set-point's reach"
+                                )
+                                .on(i)
                             );
                         }
                     }
@@ -127,13 +116,14 @@ impl<S: Scalar> Monitor<S> {
                         stream && t.prev == State::Operational && verdict != Validity::Invalid,
                         t.fail(Sr::Sr30, "TargetJump for a go-to, an invalid target, or outside Operational").on(i)
                     );
-                    if let Some((d, (b, _))) = jump(i) {
+                    if let Some(c) = jump(i) {
                         ensure!(
-                            d >= b - JUMP_SLACK,
-                            t.fail(Sr::Sr30, "stream sample within a segment's travel refused as a jump")
-                                .on(i)
-                                .got(d)
-                                .bound(b)
+                            !c.surely,
+                            t.fail(
+                                Sr::Sr30,
+                                "stream sample within the previous sample's or the set-point's reach refused"
+                            )
+                            .on(i)
                         );
                     }
                 } else if t.prev == State::Operational && verdict == Validity::Valid {

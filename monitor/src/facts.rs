@@ -151,6 +151,11 @@ pub(crate) struct TickFacts<'a, S> {
     /// was asked decides hold or latch, not the outputs' residual).
     pub sp_still: bool,
     pub sp_moving: bool,
+    /// SR-30: ticks since the last accepted motion, as before this tick
+    /// (`u32::MAX` when none), and the set-points' velocity over the tick
+    /// before (rad/s), when known.
+    pub gap: u32,
+    pub prev_sp_vel: Option<[f64; AXES]>,
 }
 
 impl<'a, S: Scalar> TickFacts<'a, S> {
@@ -198,6 +203,8 @@ impl<'a, S: Scalar> TickFacts<'a, S> {
             surely_moving: false,
             sp_still: false,
             sp_moving: false,
+            gap: mon.since_accept.map_or(u32::MAX, |n| n.saturating_add(1)),
+            prev_sp_vel: mon.sp_vel,
         };
         for e in out.events.iter() {
             match e {

@@ -372,13 +372,17 @@ mod tests {
     #[test]
     fn tamper_a_latch_with_the_set_points_at_rest_is_caught() {
         let mut r = homed();
-        // A lone far sample: its set-point still travels at the timeout,
-        // so the kernel latches: the events of that tick.
+        // Samples to 0.3 rad away in a burst (continuous by SR-30): the
+        // set-point still travels at the timeout, so the kernel latches:
+        // the events of that tick.
         let (mut fork, mut arm) = (r.k.fork().0, r.plant.clone());
-        let mut p = fork.status(0).position;
-        p[0] += 0.3;
-        let o = fork.tick(&arm.sense(), Some(Request::Motion(stream(p))));
-        arm.apply(&o.act.step_rate);
+        let mut p = fork.status(0).setpoint;
+        for d in [0.04f32, 0.1, 0.1, 0.06] {
+            p[0] += d;
+            let o = fork.tick(&arm.sense(), Some(Request::Motion(stream(p))));
+            assert!(o.events.is_empty(), "{:?}", o.events);
+            arm.apply(&o.act.step_rate);
+        }
         let mut latch = None;
         for _ in 0..200 {
             let o = fork.tick(&arm.sense(), None);
@@ -388,7 +392,7 @@ mod tests {
                 break;
             }
         }
-        let latch = latch.expect("a lone far sample latches");
+        let latch = latch.expect("a far stream cut while moving latches");
         // The real run: J1 streamed at 1.5 rad/s, then silence.
         let mut p = r.k.status(0).position;
         for _ in 0..30 {

@@ -43,7 +43,7 @@
 //! | SR-15 | motion accepted only in Operational; every refusal reported against the request that was sent; no event lost; no `Reject::Internal` |
 //! | SR-16 | in homing an axis moves only in a moving phase; no moving phase outside Homing |
 //! | SR-17 | accepted targets valid; a clearly valid target in Operational accepted (or refused as a jump, SR-30) |
-//! | SR-18 | in Operational the set-point moves at most vmax/tick_hz per tick |
+//! | SR-18 | in Operational the set-point moves at most vmax/tick_hz per tick, and stays inside the set-point guarantee's intervals (G1, G2: [`setpoint_guarantee`]) |
 //! | SR-19 | in Operational and Stopping every axis is homed (but the aborted run's, in a stop after a lost link in homing) and within its limits plus margin; with [`PlantFacts`], after a resync inside the limits and nothing injected since, every homed joint's true angle within its limits plus `ArmConfig::overrun_bound` (+ 2 mrad) |
 //! | SR-25 | in Operational and Homing the output changes by at most max_acceleration/tick_hz per tick (in Homing a stop to zero at the axis's switch may be immediate) |
 //! | SR-27 | in Operational the set-point velocity, computed from consecutive set-points, changes by at most max_acceleration/tick_hz plus the landing allowance and rounding (see `Monitor::check_setpoints`); a set-point never crosses its target and stays once there; set-points within the joint limits (or the resync point) |
@@ -96,16 +96,18 @@ macro_rules! ensure {
 }
 
 mod acceptance;
+pub mod continuity;
 mod facts;
 mod homing;
 mod latch;
 mod motion;
 mod sensors;
+pub mod setpoint_guarantee;
 mod stats;
 mod stops;
 mod violation;
 
-pub use acceptance::{max_jump, validity, Validity, JUMP_SLACK};
+pub use acceptance::{validity, Validity};
 pub use facts::{PlantFacts, Sent};
 pub use stats::{fault_kind, Stats, FAULT_KINDS};
 pub use violation::{Sr, Violation};
@@ -199,6 +201,8 @@ pub struct Monitor<S> {
     target: Option<[S; AXES]>,
     /// SR-27: the set-points where Operational was entered (resync).
     anchor: [f64; AXES],
+    /// SR-18: the set-point guarantee's intervals.
+    guarantee: setpoint_guarantee::Guarantee,
     /// SR-27: axes given a target inside their braking distance, not
     /// judged for acceleration until at rest at it for long enough.
     infeasible: u8,
@@ -265,6 +269,7 @@ impl<S: Scalar> Monitor<S> {
             stopping_from_homing: false,
             target: None,
             anchor: [0.0; AXES],
+            guarantee: setpoint_guarantee::Guarantee::default(),
             infeasible: 0,
             rest_ticks: [0; AXES],
             reach: [None; AXES],
@@ -340,6 +345,7 @@ impl<S: Scalar> Monitor<S> {
         self.check_acceptance(&t)?;
         self.check_setpoint_speed(&t)?;
         self.check_setpoints(&t)?;
+        self.check_guarantee(&t)?;
         self.check_limits(&t)?;
         self.check_following_error(&t)?;
         self.check_homing_travel(&t)?;

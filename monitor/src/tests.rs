@@ -89,13 +89,24 @@ impl Rig {
         self.tick(Some(Request::Motion(target(p, kernel::MotionKind::Stream))))
     }
 
-    /// A stream sample `d` rad from where joint `axis` is (within a
-    /// segment's travel for |d| < 0.29 on J1): the set-point is still
-    /// moving 100 ms later when |d| is near that.
+    /// Stream samples toward joint `axis`'s position plus `d` rad, in a
+    /// burst continuous by SR-30 (the first 0.04 rad from the set-point,
+    /// each next 0.1 rad on): the set-point is still moving 100 ms later
+    /// when |d| is near 0.3. Returns the last sample's tick.
     fn nudge(&mut self, axis: usize, d: f64) -> TickOutput<f32> {
         let mut p = self.plant.q;
-        p[axis] += d;
-        self.motion(p)
+        let from = f64::from(self.k.status(0).setpoint[axis]);
+        let to = p[axis] + d;
+        let mut x = from;
+        loop {
+            let step = if x == from { 0.04 } else { 0.1 };
+            x = if (to - x).abs() <= step { to } else { x + step * (to - x).signum() };
+            p[axis] = x;
+            let out = self.motion(p);
+            if x == to {
+                return out;
+            }
+        }
     }
 
     /// Runs until the state is `s` (at most `max` ticks).
@@ -137,6 +148,7 @@ fn a_clean_run_has_no_violation_and_is_counted() {
     let mut r = Rig::homed();
     let mut p = r.plant.q;
     p[0] += 0.2;
+    r.nudge(0, 0.2);
     for _ in 0..50 {
         r.motion(p);
         r.run(9);
@@ -481,7 +493,7 @@ fn sr30_far_stream_sample_accepted_and_near_one_refused() {
     let mut r = Rig::homed();
     let quiet = events_after(&r, 0, None);
     let mut p = r.plant.q;
-    p[0] += 0.5; // beyond 3 * 0.04 + 0.15 + 0.02 = 0.29 rad
+    p[0] += 0.5; // beyond the set-point's reach from rest (0.044 rad on J1)
     let far = Request::Motion(target(p, kernel::MotionKind::Stream));
     let v = r.caught_req(Sr::Sr30, Some(far), |o, _| {
         o.events = quiet;
@@ -494,13 +506,13 @@ fn sr30_far_stream_sample_accepted_and_near_one_refused() {
     let refused = events_after(&r, 0, Some(Request::Motion(target(p, kernel::MotionKind::Stream))));
     assert!(refused.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::TargetJump { axis: 0 }, .. })));
     let mut p = r.plant.q;
-    p[0] += 0.1;
+    p[0] += 0.03;
     let near = Request::Motion(target(p, kernel::MotionKind::Stream));
     let v = r.caught_req(Sr::Sr30, Some(near), |o, _| {
         o.events = refused;
         o.status.timeout_armed = false;
     });
-    assert!(v.to_string().contains("refused as a jump"), "{v}");
+    assert!(v.to_string().contains("reach refused"), "{v}");
     // A go-to far away is fine (the kernel's own answer).
     let mut r = Rig::homed();
     let mut p = r.plant.q;
@@ -613,4 +625,30 @@ fn sr19_joint_beyond_the_overrun_bound_on_a_clean_plant() {
     let (_, res) = r.tick_facts(None, |_, _| {}, |f| f.q[2] = beyond);
     let v = res.expect_err("beyond the overrun bound");
     assert_eq!((v.sr, v.axis), (Sr::Sr19, Some(2)), "{v}");
+}
+
+/// The go-to + frame case with the refusal hidden (as a constant distance
+/// bound from the set-point would accept it): a driver frame 0.12 rad
+/// ahead of J6's set-point, inside its 0.37 rad stopping distance, during a
+/// full-speed go-to, accepted: SR-30.
+#[test]
+fn sr30_a_frame_inside_a_go_to_s_stopping_distance_accepted() {
+    let mut r = Rig::homed();
+    let mut p = r.plant.q;
+    p[5] = 0.5;
+    r.tick(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))));
+    r.run(3_000);
+    p[5] = -5.5;
+    r.tick(Some(Request::Motion(target(p, kernel::MotionKind::GoTo))));
+    while r.k.status(0).setpoint[5] > -0.134 {
+        r.tick(None);
+    }
+    p[5] = -0.25;
+    let quiet = events_after(&r, 0, None);
+    let frame = Request::Motion(target(p, kernel::MotionKind::Stream));
+    let v = r.caught_req(Sr::Sr30, Some(frame), |o, _| {
+        o.events = quiet;
+        o.status.timeout_armed = true;
+    });
+    assert_eq!(v.axis, Some(5), "{v}");
 }

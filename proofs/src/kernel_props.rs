@@ -171,16 +171,18 @@ fn soft_stop<S: Sym>() {
     // No timeout before the first command (SR-8): the setup ran many ticks.
     assert!(k.state() == State::Operational);
     let mut t = target(p);
-    // A sample within 0.1 rad of the set-point and inside the limits: a
-    // valid stream sample (never a TARGET_JUMP); or exactly the set-point.
+    // A sample within 0.019 rad of the set-point and inside the limits: a
+    // valid stream sample (within the set-point's reach from rest, SR-30:
+    // 0.020 rad under `PROOF_CONFIG`; never a TARGET_JUMP); or exactly the
+    // set-point.
     let still_target: bool = kani::any();
     for i in 0..AXES {
         if still_target {
             break;
         }
         let j = &PROOF_CONFIG.joints[i];
-        let d = any_mostly_in(S::from_f32(-0.1), S::from_f32(0.1));
-        let d = if d.is_finite() { d.clamp_between(S::from_f32(-0.1), S::from_f32(0.1)) } else { S::ZERO };
+        let d = any_mostly_in(S::from_f32(-0.019), S::from_f32(0.019));
+        let d = if d.is_finite() { d.clamp_between(S::from_f32(-0.019), S::from_f32(0.019)) } else { S::ZERO };
         t.position[i] = p[i].plus(d).clamp_between(S::from_f32(j.limit_min), S::from_f32(j.limit_max));
     }
     let o = k.tick(&still(0), Some(Request::Motion(t)));

@@ -196,7 +196,7 @@ fn observer_correction_is_between_prediction_and_measurement_fx() {
 fn interpolator<S: Sym>() {
     let j = any_joint();
     let jc = &PROOF_CONFIG.joints[j];
-    let k = kernel::interp::profile::<S>(jc.max_velocity, jc.max_acceleration, PROOF_CONFIG.tick_hz);
+    let k = kernel::interp::joint_profile::<S>(jc, PROOF_CONFIG.tick_hz);
     let lim = S::from_f32(16.0);
     let (sp, to) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
     let vel = any_in(k.vmax.neg(), k.vmax);
@@ -225,6 +225,43 @@ fn interpolator<S: Sym>() {
         kani::cover!(sp2 == to, "lands exactly");
         assert!(sp2.minus(sp).abs() <= dist, "passed the target");
     }
+}
+
+/// SR-18, the set-point guarantee's one-tick lemma (the SMT step proves
+/// the same statement): from any state whose set-point lies in its interval
+/// `[lo, hi]` (set-point, target, interval in +-16 rad, velocity and
+/// cruising speed within the joint's limits), one tick keeps the set-point
+/// in `[lo, hi]`; and accepting a target `x` there gives an interval that
+/// holds the set-point and `x` and lies inside the span of `[lo, hi]` and
+/// `x`.
+#[cfg_attr(not(kani), kani::loops)]
+fn setpoint_guarantee<S: Sym>() {
+    let j = any_joint();
+    let k = kernel::interp::joint_profile::<S>(&PROOF_CONFIG.joints[j], PROOF_CONFIG.tick_hz);
+    let lim = S::from_f32(16.0);
+    let (lo, hi) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
+    kani::assume(lo <= hi);
+    let (sp, to, x) = (any_in(lo, hi), any_in(lo, hi), any_in(lim.neg(), lim));
+    let vel = any_in(k.vmax.neg(), k.vmax);
+    let speed = any_in(S::ZERO, k.vmax);
+    kani::cover!(lo == hi, "at rest on its interval");
+    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi);
+    let mut moved = it;
+    let (sp2, _) = moved.advance(&k);
+    assert!(sp2 >= lo && sp2 <= hi, "the set-point left its interval");
+    it.retarget(x, speed, &k);
+    let (lo2, hi2) = it.bounds();
+    assert!(lo2 <= sp && sp <= hi2 && lo2 <= x && x <= hi2, "the new interval misses the set-point or the target");
+    assert!(lo2 >= lo.min(x) && hi2 <= hi.max(x), "the new interval reaches beyond the old one and the target");
+}
+
+#[kani::proof]
+fn setpoint_guarantee_one_tick_f32() {
+    setpoint_guarantee::<f32>();
+}
+#[kani::proof]
+fn setpoint_guarantee_one_tick_fx() {
+    setpoint_guarantee::<Fx>();
 }
 
 #[kani::proof]

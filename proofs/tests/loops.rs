@@ -32,6 +32,7 @@ const DOMAINS: &[(&str, u32, &str)] = &[
     ("position", 6, "per axis"),
     ("velocity", 6, "per axis"),
     ("setpoint", 6, "per axis"),
+    ("prev_setpoint", 6, "per axis"),
     ("sp", 6, "per axis (set-points)"),
     ("out", 6, "per axis"),
     ("last_out", 6, "per axis"),

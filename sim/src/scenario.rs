@@ -849,13 +849,15 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 24] = [
+pub const BUILTIN: [(&str, &str); 26] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("driver-stream-cut", include_str!("../scenarios/driver-stream-cut.scn")),
     ("configurator-jog-25hz", include_str!("../scenarios/configurator-jog-25hz.scn")),
     ("jog-release-jog", include_str!("../scenarios/jog-release-jog.scn")),
     ("configurator-goto", include_str!("../scenarios/configurator-goto.scn")),
+    ("goto-then-driver-frame", include_str!("../scenarios/goto-then-driver-frame.scn")),
+    ("leap-after-enable", include_str!("../scenarios/leap-after-enable.scn")),
     ("cable-pull", include_str!("../scenarios/cable-pull.scn")),
     ("cable-pull-goto", include_str!("../scenarios/cable-pull-goto.scn")),
     ("stream-resumes-after-silence", include_str!("../scenarios/stream-resumes-after-silence.scn")),

@@ -312,3 +312,20 @@ fn wire_checks_accept_the_new_lines() {
     assert!(checker.check(&step).is_empty(), "{lines:?}: {:?}", checker.check(&step));
     println!("{}", lines.concat());
 }
+
+/// A driver frame inside a full-speed go-to's stopping distance is refused
+/// (accepted, J6's set-point would run 0.25 rad past it); the go-to ends
+/// at its target.
+#[test]
+fn a_driver_frame_inside_a_go_to_s_stopping_distance_is_refused() {
+    let r = run_builtin("goto-then-driver-frame");
+    assert_passes(&r);
+}
+
+/// After `<ENABLE>` a resumed stream's first sample 0.22 rad (J1) and
+/// 0.30 rad (J6) from the pose is refused; a stream from the pose moves.
+#[test]
+fn a_leap_from_rest_after_enable_is_refused() {
+    let r = run_builtin("leap-after-enable");
+    assert_passes(&r);
+}

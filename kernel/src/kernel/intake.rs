@@ -7,14 +7,21 @@
 //! no fault cause present. Each refusal is a [`Reject`]; the mode changes
 //! this causes go through `Kernel::transition`.
 
+use super::params::AxisParams;
 use super::supervisor::Edge;
 use super::{bit, Kernel, ALL};
 use crate::config::AXES;
+use crate::interp::Interpolator;
 use crate::scalar::Scalar;
 use crate::types::{
     EncoderSample, Event, Events, FaultReason, HomingStatus, MotionKind, MotionTarget, Reject, Request, RequestKind,
     Sense, State,
 };
+
+/// Longest time (ticks) a sample's distance from the previous one is
+/// judged over (a shorter cap only tightens the bound; the PAROL6's command
+/// timeout, 100 ms, ends a silent stream long before).
+const MAX_SAMPLE_GAP: u32 = 1000;
 
 /// Median of four values (mean of the middle two), with a fixed network of
 /// comparisons: bounded, branch-light, no indexing.
@@ -98,12 +105,19 @@ impl<S: Scalar> Kernel<S> {
         }
         self.validate(t)?;
         if t.kind == MotionKind::Stream {
-            // Stream continuity: a sample must be within one segment's
-            // travel of the set-point or of the previous target.
-            for (i, ((ax, p), target)) in self.axes.iter().zip(self.p.axes.iter()).zip(t.position.iter()).enumerate() {
-                let from_sp = target.minus(ax.interp.setpoint()).abs();
-                let from_last = target.minus(ax.interp.target()).abs();
-                if from_sp.min(from_last) > p.max_jump_rad {
+            // Stream continuity (SR-30): every axis's sample continues its
+            // stream, or lies where the set-point can be within one
+            // segment. The stream is live (its previous sample is every
+            // interpolator's target) while the timeout is armed: a hold or
+            // latch at the timeout, an enable, homing and a go-to forget it.
+            let live = self.armed;
+            // Samples in a burst arrive closer than they were sampled: the
+            // time between two is at least one longest segment.
+            let ticks = i32::try_from(self.since_cmd.max(self.p.seg_max).min(MAX_SAMPLE_GAP)).unwrap_or(0);
+            for (i, ((ax, p), x)) in self.axes.iter().zip(self.p.axes.iter()).zip(t.position.iter()).enumerate() {
+                let from_last = x.minus(ax.interp.target()).abs();
+                let continues = live && from_last <= p.sample_step.times_int(ticks).plus(p.jump_tol);
+                if !(continues || Self::within_reach(&ax.interp, *x, p)) {
                     return Err(Reject::TargetJump { axis: i as u8 });
                 }
             }
@@ -128,7 +142,7 @@ impl<S: Scalar> Kernel<S> {
             // Go-to: the speed limit; stream: the distance over the typical
             // interval (the profile bounds it to the speed limit).
             let speed = S::select(n == 0, p.vmax, target.minus(ax.interp.setpoint()).abs().times_int(hz).div_int(n));
-            ax.interp.retarget(*target, speed);
+            ax.interp.retarget(*target, speed, &p.profile);
         }
         if t.kind == MotionKind::Stream {
             self.since_target = Some(0);
@@ -142,6 +156,25 @@ impl<S: Scalar> Kernel<S> {
         }
         self.since_cmd = 0;
         Ok(())
+    }
+
+    /// Where the set-point can be within one longest segment `T` from its
+    /// velocity `v` (at the joint's acceleration `a`): between the
+    /// set-point and `sp + v T +- a T^2 / 2`, plus the tolerance; and no
+    /// farther inside its stopping distance than the tolerance (a sample
+    /// it would run past, or away from, by more is refused).
+    fn within_reach(it: &Interpolator<S>, x: S, p: &AxisParams<S>) -> bool {
+        let (sp, v) = (it.setpoint(), it.velocity());
+        let drift = sp.plus(v.times(p.reach_period));
+        let lo = sp.min(drift.minus(p.reach_accel)).minus(p.jump_tol);
+        let hi = sp.max(drift.plus(p.reach_accel)).plus(p.jump_tol);
+        // How far the stopping point lies beyond both the set-point and the
+        // sample, along the velocity.
+        let stop = it.stop_point(&p.profile);
+        let neg = v < S::ZERO;
+        let ahead = |y: S| S::select(neg, y.neg(), y);
+        let excursion = ahead(stop).minus(ahead(sp).max(ahead(x)));
+        x >= lo && x <= hi && excursion <= p.jump_tol
     }
 
     /// `detected`: a fault condition found earlier in this same tick (it is

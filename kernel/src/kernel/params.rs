@@ -7,7 +7,7 @@ use crate::config::{
     ms_to_ticks, ArmConfig, JointConfig, Validated, AXES, HOLD_SPEED, MAX_SEGMENT_TICKS, POSITION_ABS_MAX,
 };
 use crate::homing::HomingParams;
-use crate::interp::{profile, Profile};
+use crate::interp::{joint_profile, Profile};
 use crate::observer::ObserverGains;
 use crate::scalar::Scalar;
 use crate::types::{MotionTarget, Reject};
@@ -90,10 +90,20 @@ pub(crate) struct AxisParams<S: Scalar> {
     pub homing: HomingParams<S>,
     /// The set-point profile (acceleration and speed limits).
     pub profile: Profile<S>,
-    /// Largest distance of a stream sample from the set-point (rad): one
-    /// longest segment at the speed limit, the braking distance from it (the
-    /// set-point lags a full-speed stream by that much), and the tolerance.
-    pub max_jump_rad: S,
+    /// Stream continuity (`SAFETY.md` SR-30): a driver sample is accepted
+    /// within `sample_step` per tick since the previous sample of its
+    /// stream (at least [`Self::reach_period`]'s ticks) plus `jump_tol`, or
+    /// within where the set-point can be within one longest segment.
+    /// The speed limit per tick (rad).
+    pub sample_step: S,
+    /// `target_jump_tolerance` (rad).
+    pub jump_tol: S,
+    /// One longest segment (s): the stream period the set-point's reach is
+    /// judged over.
+    pub reach_period: S,
+    /// `max_acceleration * period^2 / 2` (rad): what acceleration adds to
+    /// the set-point's drift over one longest segment.
+    pub reach_accel: S,
 }
 
 impl<S: Scalar> AxisParams<S> {
@@ -127,10 +137,11 @@ impl<S: Scalar> AxisParams<S> {
                 phase_travel: S::from_f32(j.homing_phase_travel()),
                 settle_ticks: ms_to_ticks(c.homing_settle_ms, c.tick_hz),
             },
-            profile: profile(j.max_velocity, j.setpoint_acceleration(), c.tick_hz),
-            max_jump_rad: S::from_f32(
-                j.max_velocity * seg_s + j.setpoint_braking_distance(j.max_velocity) + c.target_jump_tolerance,
-            ),
+            profile: joint_profile(j, c.tick_hz),
+            sample_step: S::from_f32(j.max_velocity / c.tick_hz as f32),
+            jump_tol: S::from_f32(c.target_jump_tolerance),
+            reach_period: S::from_f32(seg_s),
+            reach_accel: S::from_f32(j.max_acceleration * seg_s * seg_s * 0.5),
         }
     }
 }
@@ -228,11 +239,15 @@ mod figures {
             let ideal = (j.max_velocity / j.setpoint_acceleration() * p.tick_hz as f32).ceil() as u32;
             let n = braking_ticks(a);
             assert!((ideal..=ideal + 3).contains(&n), "J{}: {n} ticks, v/a {ideal}", i + 1);
-            assert!(a.max_jump_rad > j.setpoint_braking_distance(j.max_velocity));
+            let seg = p.seg_max as i32;
+            let sample = a.sample_step.times_int(seg).plus(a.jump_tol);
+            let rest = a.reach_accel.plus(a.jump_tol);
             println!(
-                "J{}: stream-continuity bound {:.4} rad, set-point braking from {:.1} rad/s: {} ms",
+                "J{}: stream continuity {:.4} rad from the previous sample per {} ms, {:.4} rad from rest; set-point braking from {:.1} rad/s: {} ms",
                 i + 1,
-                a.max_jump_rad,
+                sample,
+                seg,
+                rest,
                 a.vmax,
                 n
             );

@@ -134,6 +134,35 @@ impl<S: Scalar> Rig<S> {
         self.tick(Some(Request::Motion(target(p))))
     }
 
+    /// Streams toward `p` in a burst, one sample a tick, each continuous by
+    /// SR-30: the first 0.04 rad from the set-point (within its reach from
+    /// rest on every joint), each next at most 0.1 rad from the one before
+    /// (within a longest segment at every joint's speed limit). Returns the
+    /// output of the tick that sent `p`.
+    pub fn stream_to(&mut self, p: [f64; AXES]) -> TickOutput<S> {
+        let sp = self.last.as_ref().map(|o| o.status.setpoint.map(|x| f64::from(x.to_f32())));
+        let from = sp.unwrap_or(self.plant.q);
+        let far = p.iter().zip(from.iter()).map(|(a, b)| (a - b).abs()).fold(0.0f64, f64::max);
+        let n = if far <= 0.04 { 1 } else { 2 + ((far - 0.04) / 0.1) as u32 };
+        let mut out = None;
+        for k in 1..=n {
+            let reach = (0.04 + 0.1 * f64::from(k - 1)).min(far);
+            let q: [f64; AXES] = core::array::from_fn(|i| {
+                let d = p[i] - from[i];
+                if far > 0.0 {
+                    from[i] + d * reach / far
+                } else {
+                    p[i]
+                }
+            });
+            let q = if k == n { p } else { q };
+            let o = self.motion(q);
+            assert!(o.events.is_empty(), "stream_to: sample {k} of {n}: {:?}", o.events);
+            out = Some(o);
+        }
+        out.expect("at least one sample")
+    }
+
     pub fn goto(&mut self, p: [f64; AXES]) -> TickOutput<S> {
         self.tick(Some(Request::Motion(goto(p))))
     }

@@ -181,8 +181,14 @@ fn main() {
     // SR-18/SR-27: the first set-point step from rest toward every target,
     // for each distinct (speed, acceleration). A slice: the state (set-point,
     // velocity) is fixed at rest at 0 and the cruising speed at vmax.
-    for ((vmax, amax), joints) in distinct(|j| (PAROL6.joints[j].max_velocity, PAROL6.joints[j].max_acceleration)) {
+    // The profile is the kernel's own (`interp::joint_profile`, at the
+    // set-point acceleration).
+    for ((vmax, amax), joints) in
+        distinct(|j| (PAROL6.joints[j].max_velocity, PAROL6.joints[j].setpoint_acceleration()))
+    {
         let k = kernel::interp::profile::<Fx>(vmax, amax, PAROL6.tick_hz);
+        let same = joints.iter().all(|&j| kernel::interp::joint_profile::<Fx>(&PAROL6.joints[j], PAROL6.tick_hz) == k);
+        assert!(same, "the sweep's profile is not the kernel's for J{joints:?}");
         let dv = k.dv;
         results.push(sweep(
             "SR-18/27",
@@ -195,7 +201,7 @@ fn main() {
                 all_u32(|b| {
                     let target = Fx::from_bits(b as i32);
                     let mut it = Interpolator::hold(Fx::ZERO);
-                    it.retarget(target, k.vmax);
+                    it.retarget(target, k.vmax, &k);
                     let (sp, v) = it.advance(&k);
                     let (lo, hi) = (Ord::min(target, Fx::ZERO), Ord::max(target, Fx::ZERO));
                     sp >= lo && sp <= hi && Scalar::abs(v) <= dv.plus(k.eps.times_int(2000)) && (v >= Fx::ZERO) == (target >= Fx::ZERO) || (v == Fx::ZERO && sp == Fx::ZERO)

@@ -160,6 +160,26 @@ pub fn all() -> Vec<Proof> {
             props::interpolator::<SymF32>(j, NeverPasses, props::advance)
         }));
     }
+    // The set-point guarantee's one-tick lemma (SR-18), both variants, for
+    // every profile (so every joint's).
+    use props::Guarantee::{Advance, Retarget};
+    let every: Vec<usize> = (0..kernel::config::AXES).collect();
+    out.push(interp(
+        SymF32::VARIANT,
+        every.clone(),
+        "set-point guarantee: a tick stays in the interval",
+        false,
+        |_| props::setpoint_guarantee::<SymF32>(Advance),
+    ));
+    out.push(interp(SymF32::VARIANT, every.clone(), "set-point guarantee: a target's interval", false, |_| {
+        props::setpoint_guarantee::<SymF32>(Retarget)
+    }));
+    out.push(interp(SymFx::VARIANT, every.clone(), "set-point guarantee: a tick stays in the interval", false, |_| {
+        props::setpoint_guarantee::<SymFx>(Advance)
+    }));
+    out.push(interp(SymFx::VARIANT, every, "set-point guarantee: a target's interval", false, |_| {
+        props::setpoint_guarantee::<SymFx>(Retarget)
+    }));
     for joints in groups(props::joint_profile::<Fx>) {
         let v = SymFx::VARIANT;
         out.push(interp(v, joints.clone(), "interpolator step: new state finite", false, |j| {
@@ -188,7 +208,7 @@ pub fn requirements(name: &str) -> &'static str {
         n if n.starts_with("observer") => "SR-3",
         n if n.starts_with("soft-stop") => "SR-7",
         n if n.starts_with("homing ramp") => "SR-14/25",
-        n if n.contains("never passes") => "SR-18",
+        n if n.contains("never passes") || n.starts_with("set-point guarantee") => "SR-18",
         n if n.contains("|vel'| <= vmax") => "SR-18/27",
         n if n.starts_with("interpolator") => "SR-27",
         _ => "SR-?",
@@ -197,6 +217,19 @@ pub fn requirements(name: &str) -> &'static str {
 
 #[cfg(test)]
 mod tests {
+    /// The interpolator proofs' profiles are the kernel's own (`Params`):
+    /// a proof built from another profile fails here.
+    #[test]
+    fn the_proofs_profiles_are_the_kernel_s() {
+        use kernel::config::PAROL6_VALIDATED;
+        let (k32, _) = kernel::Kernel::<f32>::new(&PAROL6_VALIDATED);
+        let (kfx, _) = kernel::Kernel::<kernel::Fx>::new(&PAROL6_VALIDATED);
+        for j in 0..kernel::config::AXES {
+            assert_eq!(k32.profile(j), Some(crate::props::joint_profile::<f32>(j)), "J{}", j + 1);
+            assert_eq!(kfx.profile(j), Some(crate::props::joint_profile::<kernel::Fx>(j)), "J{}", j + 1);
+        }
+    }
+
     #[test]
     fn every_proof_traces_to_a_requirement() {
         for p in super::all() {

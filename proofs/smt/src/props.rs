@@ -9,7 +9,7 @@
 use crate::sym::{Sym, B};
 use kernel::config::{ArmConfig, PAROL6};
 use kernel::control::control_law;
-use kernel::interp::{profile, Interpolator, Profile};
+use kernel::interp::{joint_profile as joint_profile_of, Interpolator, Profile};
 use kernel::observer::{AlphaBeta, ObserverGains};
 use kernel::ramp;
 use kernel::Scalar;
@@ -141,8 +141,7 @@ pub fn observer_coast<S: Sym>(slack: f32) -> Vec<B> {
 /// Joint `j`'s set-point profile, built as `Params::new` builds it (the
 /// kernel's own `profile` at the joint's `setpoint_acceleration`).
 pub fn joint_profile<S: Scalar>(j: usize) -> Profile<S> {
-    let jc = &CONFIG.joints[j];
-    profile::<S>(jc.max_velocity, jc.setpoint_acceleration(), CONFIG.tick_hz)
+    joint_profile_of::<S>(&CONFIG.joints[j], CONFIG.tick_hz)
 }
 
 /// A set-point step under proof: `(set-point, target, velocity, cruising
@@ -207,6 +206,68 @@ pub fn interpolator<S: Sym>(j: usize, which: InterpProp, step: Step<S>) -> Vec<B
                 .or(B::all(&[to.t_eq(sp), vel.t_eq(S::ZERO)]));
             let reach = vel.times(vel).times(k.inv_2a).plus(vel.abs().times(k.dt)).plus(k.eps).t_le(dist);
             vec![approaching.and(reach.or(vel.t_eq(S::ZERO))).implies(sp2.minus(sp).abs().t_le(dist))]
+        }
+    }
+}
+
+/// Which half of the set-point guarantee's one-tick lemma.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Guarantee {
+    /// One tick keeps the set-point inside its interval.
+    Advance,
+    /// Accepting a target gives an interval holding the set-point and the
+    /// target, inside the span of the old interval and the target.
+    Retarget,
+}
+
+/// The set-point guarantee's one-tick lemma (SR-18; the Kani harness
+/// `setpoint_guarantee_one_tick_*` asserts the same): for **every**
+/// profile (each constant a free variable but the tick rate, the PAROL6's;
+/// so every joint's profile, `joint_profile`, is an instance), from any
+/// state whose interval `[lo, hi]` lies in +-16 rad and holds the set-point
+/// and the target, with velocity and cruising speed within the speed limit
+/// `vmax >= 0`: `Advance`: `Interpolator::advance` keeps the set-point in
+/// `[lo, hi]`; `Retarget`: `Interpolator::retarget` to any `x` in +-16 rad
+/// gives `[lo', hi']` with `lo' <= sp, x <= hi'` and `min(lo, x) <= lo'`,
+/// `hi' <= max(hi, x)`. By induction over ticks and accepted targets: G1
+/// and G2 of `SAFETY.md`.
+pub fn setpoint_guarantee<S: Sym>(which: Guarantee) -> Vec<B> {
+    let k = Profile {
+        dv: S::var("dv"),
+        inv_2a: S::var("inv_2a"),
+        dt: S::var("dt"),
+        half_dt: S::var("half_dt"),
+        brake_slack: S::var("brake_slack"),
+        tick_hz: i32::try_from(CONFIG.tick_hz).unwrap_or(1000),
+        vmax: S::var("vmax"),
+        eps: S::var("eps"),
+        land_slack: S::var("land_slack"),
+    };
+    let lim = S::from_f32(16.0);
+    let (lo, hi) = (S::var("lo"), S::var("hi"));
+    let (sp, to, vel, speed) = (S::var("setpoint"), S::var("target"), S::var("velocity"), S::var("speed"));
+    B::all(&[
+        within(lo, lim.neg(), lim),
+        within(hi, lim.neg(), lim),
+        within(sp, lo, hi),
+        within(to, lo, hi),
+        within(k.vmax, S::ZERO, lim),
+        within(vel, k.vmax.neg(), k.vmax),
+        within(speed, S::ZERO, k.vmax),
+    ])
+    .assume();
+    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi);
+    match which {
+        Guarantee::Advance => {
+            let (sp2, _) = it.advance(&k);
+            vec![lo.t_le(sp2), sp2.t_le(hi)]
+        }
+        Guarantee::Retarget => {
+            let x = S::var("x");
+            within(x, lim.neg(), lim).assume();
+            it.retarget(x, speed, &k);
+            let (lo2, hi2) = it.bounds();
+            vec![lo2.t_le(sp), sp.t_le(hi2), lo2.t_le(x), x.t_le(hi2), lo.min(x).t_le(lo2), hi2.t_le(hi.max(x))]
         }
     }
 }
