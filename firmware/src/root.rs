@@ -28,6 +28,7 @@
 use hal_imxrt::pure::channel::EncoderChannel;
 use hal_imxrt::pure::debounce::{Debounce, LimitState};
 use hal_imxrt::pure::encoder::{EncoderReading, LossReason};
+use hal_imxrt::pure::reset_cause::ResetCause;
 use hal_imxrt::pure::step::{StepCommand, StepPlan};
 use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
@@ -126,6 +127,7 @@ pub fn new<'a>(cfg: &Validated, link: &'a mut RootLink, host: HostConfig) -> (Co
         fingerprint: config_fingerprint(cfg.config()),
         periods: 0,
         was_open: false,
+        reset: ResetCause::PowerOn,
     };
     (controller, host)
 }
@@ -397,6 +399,7 @@ pub struct Host<'a> {
     fingerprint: u64,
     periods: u32,
     was_open: bool,
+    reset: ResetCause,
 }
 
 impl core::fmt::Debug for Host<'_> {
@@ -406,10 +409,22 @@ impl core::fmt::Debug for Host<'_> {
 }
 
 impl Host<'_> {
+    /// Sets the last reset's cause the banner names (a new root says
+    /// [`ResetCause::PowerOn`] until the board reads the real one).
+    pub fn set_reset_cause(&mut self, cause: ResetCause) {
+        self.reset = cause;
+    }
+
     /// The boot banner line.
     pub fn banner(&mut self) -> &Line {
-        let ok =
-            banner_line(&mut self.line, self.cfg.version, self.fingerprint, self.rx.parser().lock(), self.cfg.feedback);
+        let ok = banner_line(
+            &mut self.line,
+            self.cfg.version,
+            self.fingerprint,
+            self.rx.parser().lock(),
+            self.cfg.feedback,
+            self.reset.name(),
+        );
         if ok.is_err() {
             self.line.clear();
         }
@@ -565,5 +580,16 @@ mod tests {
             assert_eq!(board.feeds, n);
         }
         assert!(!controller.flow_broken());
+    }
+
+    #[test]
+    fn the_banner_names_the_reset_cause_it_was_given() {
+        let mut link = RootLink::new();
+        let (_controller, mut host) = new(&PAROL6_VALIDATED, &mut link, HostConfig::USB);
+        assert!(host.banner().as_str().ends_with(" reset=POWER_ON\n"), "{}", host.banner().as_str());
+        host.set_reset_cause(ResetCause::Watchdog);
+        assert!(host.banner().as_str().ends_with(" reset=WATCHDOG\n"), "{}", host.banner().as_str());
+        host.set_reset_cause(ResetCause::Lockup);
+        assert!(host.banner().as_str().ends_with(" reset=LOCKUP\n"), "{}", host.banner().as_str());
     }
 }

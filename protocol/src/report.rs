@@ -333,14 +333,17 @@ pub fn telemetry_lost_line(out: &mut Line, n: u32) -> Result<(), Full> {
 }
 
 /// Boot banner: `BOOT PAROL6 fw=<version> protocol=1 config=<16 hex>
-/// dialect=<lock> feedback=<mode>`. Bytes of `version` outside 0x21..=0x7E
-/// are printed as `?`; at most 32 are printed.
+/// dialect=<lock> feedback=<mode> reset=<cause>`. Bytes of `version` and
+/// `reset` outside 0x21..=0x7E are printed as `?`; at most 32 of the
+/// version and 16 of the cause are printed. `reset` names why the chip
+/// last reset (`POWER_ON`, `WATCHDOG`, `LOCKUP`, ...).
 pub fn banner_line(
     out: &mut Line,
     version: &str,
     fingerprint: u64,
     lock: DialectLock,
     mode: FeedbackMode,
+    reset: &str,
 ) -> Result<(), Full> {
     out.clear();
     push_str(out, "BOOT PAROL6 fw=")?;
@@ -360,6 +363,10 @@ pub fn banner_line(
             FeedbackMode::Both => " feedback=BOTH",
         },
     )?;
+    push_str(out, " reset=")?;
+    for &b in reset.as_bytes().iter().take(16) {
+        push_byte(out, if (0x21..=0x7E).contains(&b) { b } else { b'?' })?;
+    }
     push_byte(out, b'\n')
 }
 

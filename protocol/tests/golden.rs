@@ -354,10 +354,11 @@ fn rejections_and_drops_are_reported() {
 fn banner() {
     const FP: u64 = config_fingerprint(&PAROL6);
     let mut out = Line::new();
-    banner_line(&mut out, "0.1.0 dev\n", FP, DialectLock::Auto, protocol::feedback::FeedbackMode::Both).unwrap();
+    banner_line(&mut out, "0.1.0 dev\n", FP, DialectLock::Auto, protocol::feedback::FeedbackMode::Both, "WATCHDOG")
+        .unwrap();
     assert!(is_clean_line(&out) && !out.starts_with('<'));
     assert_eq!(
         out.as_str(),
-        format!("BOOT PAROL6 fw=0.1.0?dev? protocol=1 config={FP:016X} dialect=AUTO feedback=BOTH\n")
+        format!("BOOT PAROL6 fw=0.1.0?dev? protocol=1 config={FP:016X} dialect=AUTO feedback=BOTH reset=WATCHDOG\n")
     );
 }

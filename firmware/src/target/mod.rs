@@ -45,6 +45,7 @@ use hal_imxrt::pure::clock::{
 };
 use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::pins::PinMap;
+use hal_imxrt::pure::reset_cause::{self, ResetCause};
 use hal_imxrt::pure::step::StepCommand;
 use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
@@ -238,7 +239,7 @@ fn main() -> ! {
     // --- reset cause and panic marker, before anything can panic again.
     let srsr = ral::read_reg!(ral::src, inst.SRC, SRSR);
     ral::write_reg!(ral::src, inst.SRC, SRSR, srsr); // w1c
-    let watchdog_reset = srsr & ral::src::SRSR::WDOG3_RST_B::mask != 0;
+    let reset = reset_cause::decode(srsr);
     // SAFETY: single-threaded boot, interrupts not yet enabled; the word is
     // plain memory (uninitialised after power-on: any value is fine, only
     // the exact marker means "previous panic").
@@ -291,7 +292,7 @@ fn main() -> ! {
     // event line overflowed it: found by the register-level twin).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
     let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog, clock };
-    let (host, boot) = init_root(board, marker, watchdog_reset, &mut serial1, &inst.IOMUXC);
+    let (host, boot) = init_root(board, marker, reset, &mut serial1, &inst.IOMUXC);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
     // which is initialised above. Highest priority (0); Serial1 and USB
@@ -385,18 +386,19 @@ impl MsClock {
 fn init_root(
     mut board: Teensy,
     marker: u32,
-    watchdog_reset: bool,
+    reset: ResetCause,
     serial1: &mut Serial1,
     io: &ral::iomuxc::RegisterBlock,
 ) -> (&'static mut Host<'static>, BootReport) {
     // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
     // two ends go to the tick (controller) and the main loop (host).
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
-    let (mut controller, host) = root::new(&PAROL6_VALIDATED, link, HOST_CFG);
+    let (mut controller, mut host) = root::new(&PAROL6_VALIDATED, link, HOST_CFG);
+    host.set_reset_cause(reset);
     // Boot self-test: the encoders and limit inputs are sampled for
     // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
     // readings initialise the observers at the real angles (nothing moves).
-    let boot = controller.boot(&mut board, marker, watchdog_reset);
+    let boot = controller.boot(&mut board, marker, reset == ResetCause::Watchdog);
     // The PIT ran through the self-test with its interrupt masked and has
     // its flag set: restart its period so the first tick (and its watchdog
     // refresh) comes a full period after the self-test's last refresh,

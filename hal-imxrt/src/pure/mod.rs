@@ -12,5 +12,6 @@ pub mod frame;
 pub mod march;
 pub mod mt6816;
 pub mod pins;
+pub mod reset_cause;
 pub mod step;
 pub mod uart;
