@@ -10,6 +10,7 @@
 //! * [`root`]: the composition root (tick half and main-loop half);
 //! * [`board`]: the board interface the root is generic over;
 //! * [`flow`]: the tick's program-flow check that gates the watchdog refresh;
+//! * [`driver_enable`]: when the stepper drivers may be energised;
 //! * [`image`]: the image's CRC check at boot;
 //! * [`tx`]: the transmit ring with counted, reported drops;
 //! * [`sense`]: HAL readings -> [`kernel::Sense`];
@@ -22,6 +23,7 @@
 #![deny(clippy::arithmetic_side_effects)]
 
 pub mod board;
+pub mod driver_enable;
 pub mod flow;
 pub mod image;
 pub mod root;
