@@ -150,13 +150,13 @@ fn record<S: Bits>(v: &Validated) -> (Vec<u8>, u32, Vec<State>) {
         let lost = |s: &mut Sense| s.encoders[2] = EncoderSample::Lost;
         last_pos = step(&mut k, &mut plant, frame, if n == 555 { &lost } else { &none });
     }
-    // A last sample 0.25 rad ahead (within one segment's reach plus the
-    // braking distance), then silence: the set-point still moves when the
-    // command timeout expires (about 130-180 ms of travel), so the timeout
-    // starts the soft-stop ramp and latches (a stream that ends at rest at
-    // its target holds instead, SAFETY.md SR-29).
+    // A last sample 0.12 rad ahead of the previous one (inside the
+    // sample-to-sample continuity bound, SAFETY.md SR-30), then silence: the
+    // set-point still travels toward it when the command timeout expires, so
+    // the timeout starts the soft-stop ramp and latches (a stream whose
+    // set-points are at rest on their targets holds instead, SR-29).
     seq += 1;
-    let ahead: [f64; AXES] = std::array::from_fn(|i| last_pos[i] + sign[i] * 0.25);
+    let ahead: [f64; AXES] = std::array::from_fn(|i| p0[i] + sign[i] * 0.12);
     step(&mut k, &mut plant, Some(driver_frame(seq, &ahead, &[0.0; AXES])), &none);
     // Silence: command timeout, soft-stop ramp, latched soft E-stop.
     for _ in 0..300 {
