@@ -95,7 +95,7 @@ if [ "${QUICK:-0}" != "1" ]; then
     # Kernel<f32> tiny) run to completion (model-checked). Any property
     # violated in an explored state fails the step. The mutants: one per
     # model-checked requirement.
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full bounded 150 s, small, homing and tiny to completion; 15 kernel mutants)"
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full bounded 150 s, small, homing and tiny to completion; 16 kernel mutants)"
     cargo run -p model --release --locked -- --bounded 150
     proofs/model/mutants.sh
 

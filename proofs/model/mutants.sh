@@ -71,6 +71,13 @@ mutant enable-ignores-a-present-cause kernel/src/kernel/intake.rs \
     '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)) {' \
     '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)).filter(|_| false) {' \
     small 'SR-6: enable cleared a latch while a cause was present'
+# A lock-up: a kernel that takes an unhomed joint's switch (its homing
+# input) for an enable cause refuses <ENABLE> for good after a homing run
+# stopped with an axis on its switch.
+mutant lock-up-on-homing-switch kernel/src/kernel/supervisor.rs \
+    '            if homed && sense.limits & bit(i) != 0 {' \
+    '            if sense.limits & bit(i) != 0 {' \
+    small 'SR-6/31: recoverability: enable or home refused after a latch with no physical cause'
 mutant ramp-latches-a-tick-late kernel/src/kernel/supervisor.rs \
     '                if k >= self.p.stop_ticks && then_home == 0 {' \
     '                if k > self.p.stop_ticks && then_home == 0 {' \

@@ -81,6 +81,18 @@
 //!   distinct text; a stationary arm never makes a NaN, and if it did the
 //!   "no NaN" property would fail).
 //!
+//! Recoverability (SR-6, SR-31; property "SR-6/31: recoverability: ..."):
+//! wherever a latch is entered (or a stop toward one starts), and in every
+//! homing state with the host link lost there, the kernel is cloned and
+//! driven, with the switches pressed in that tick held pressed and nothing
+//! else perturbed, through the end of the ramp, `<ENABLE>` and, where
+//! homing was lost, `<HOME>`: both must be accepted unless a homed joint's
+//! switch is pressed (a cause only the operator removes). The lost link is
+//! judged on the clone only, not explored as a perturbation (as one it more
+//! than doubled the small configuration's state space). A kernel that takes
+//! an unhomed joint's switch for a cause (`mutants.sh`,
+//! `lock-up-on-homing-switch`) fails it.
+//!
 //! Every reachable state is explored (breadth first) and every property is
 //! checked on every transition or state; the run fails if a property is
 //! violated or a `sometimes` property is never reached (the bounded run
@@ -240,6 +252,7 @@ checks! {
     LatchReason => "SR-5: a latched fault's reason changed",
     LatchLeftOnlyByEnable => "SR-5: a latch left without an accepted enable",
     FaultReason => "SR-5: a fault state without a reason",
+    Recoverable => "SR-6/31: recoverability: enable or home refused after a latch with no physical cause",
 }
 
 /// The checks whose antecedent held on some explored transition of the
@@ -463,6 +476,73 @@ impl<S: ModelScalar> Supervisor<S> {
             Perturb::StraySwitch(i) => limits |= 1 << i,
         }
         Sense { encoders: enc, limits, hardware_fault, link_lost: false }
+    }
+
+    /// Recoverability (SR-6, SR-31): from a state that is latched, or
+    /// stopping toward a latch, with no physical cause the operator must
+    /// remove, `<ENABLE>` is accepted once the ramp has ended and, where
+    /// homing was lost, `<HOME>` starts homing. The physical world stays as
+    /// the latch left it: the switches pressed in that tick stay pressed
+    /// (an axis stopped on its switch); every other perturbation of the
+    /// model lasts one tick. A pressed switch of a homed joint is a cause
+    /// only the operator removes: such states are not judged. Returns
+    /// whether the kernel came back.
+    fn recovers(&self, k: &Kernel<S>, pressed: u8) -> bool {
+        if pressed & k.homed() != 0 {
+            return true;
+        }
+        let mut k = k.clone();
+        let sense = self.sense(Perturb::None, pressed);
+        let stop_ticks = MODEL_CONFIG.soft_stop_ms * MODEL_CONFIG.tick_hz / 1000;
+        // A few rounds: a transient cause (an encoder whose count was
+        // re-initialised from a glitch faults once more on the true
+        // reading) may latch again in between; a cause that persists
+        // refuses every round. Bounded: 4 rounds of at most the ramp and
+        // three ticks.
+        for _ in 0..4 {
+            for _ in 0..=stop_ticks {
+                if k.state() != State::Stopping {
+                    break;
+                }
+                k.tick(&sense, None);
+            }
+            match k.state() {
+                State::SoftEstop | State::Fault => {
+                    let o = k.tick(&sense, Some(self.request(Req::Enable)));
+                    if !o.events.iter().any(|e| matches!(e, Event::Enabled(_))) {
+                        k.tick(&sense, None);
+                        continue;
+                    }
+                }
+                State::Operational | State::Homing => return true,
+                _ => {}
+            }
+            match k.state() {
+                State::Unhomed => {
+                    let o = k.tick(&sense, Some(self.request(Req::Home)));
+                    if o.events.iter().any(|e| matches!(e, Event::HomingStarted { .. })) {
+                        return true;
+                    }
+                }
+                State::Operational => return true,
+                _ => {}
+            }
+        }
+        false
+    }
+
+    /// SR-31's case of recoverability: the host link lost in this homing
+    /// state (the seeking axes' switches as this tick left them, held
+    /// pressed), then restored: the run ends latched and must be
+    /// recoverable. Judged on a clone, so a lost link adds no state to the
+    /// exploration (as a perturbation of its own it more than doubled the
+    /// small configuration's state space).
+    fn recovers_from_link_loss(&self, k: &Kernel<S>, pressed: u8) -> bool {
+        let mut k = k.clone();
+        let mut sense = self.sense(Perturb::None, pressed);
+        sense.link_lost = true;
+        k.tick(&sense, None);
+        self.recovers(&k, pressed)
     }
 
     fn request(&self, r: Req) -> Request<S> {
@@ -726,6 +806,17 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         );
         c.check(Check::LatchLeftOnlyByEnable, latched, matches!(st, State::Fault | State::SoftEstop) || enabled);
         c.check(Check::FaultReason, true, (st == State::Fault) == o.status.fault.is_some());
+        // SR-6/31: recoverability, judged where a latch is entered (or a
+        // stop toward one starts; the states that stay latched are the same
+        // kernel with one-tick perturbations, which the recovery does not
+        // repeat), and for a link lost in every homing state.
+        let entering = matches!(st, State::SoftEstop | State::Fault | State::Stopping) && st != before;
+        if entering {
+            c.check(Check::Recoverable, true, self.recovers(&n.k, pressed));
+        }
+        if st == State::Homing {
+            c.check(Check::Recoverable, true, self.recovers_from_link_loss(&n.k, pressed));
+        }
         n.violated |= c.violated;
         n.ever_enabled |= enabled;
         c.record();
