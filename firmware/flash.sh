@@ -20,17 +20,19 @@ usage: firmware/flash.sh [-h|--help] [--install] [HEX]
 Writes HEX (default: target/firmware/parol6.hex, made by firmware/build.sh)
 to a Teensy 4.1 with teensy_loader_cli --mcu=TEENSY41.
 
-The Teensy must be in its bootloader (HalfKay, USB 16c0:0478): press the
-program button on the board. The image does not answer the Teensy soft
-reboot request (a USB serial line set to 134 baud), so flashing an arm that
-runs it needs the button.
+A Teensy in its bootloader (HalfKay, USB 16c0:0478) is written at once. A
+board running this image (USB serial 16c0:0483) is first asked to reboot
+into the bootloader (teensy_loader_cli -s: the serial line set to 134
+baud); the image does so only while the arm is at rest (it answers
+BOOTLOADER_REFUSED MOVING otherwise: stop the arm and run this again).
+Otherwise press the program button on the board.
 
   -h, --help   this text
   --install    install teensy_loader_cli (Debian package teensy-loader-cli,
                apt-get, as root) if it is not on PATH
 
-Environment: FLASH_WAIT_S (default 15) bounds the wait for the write to
-finish once the bootloader is on the bus.
+Environment: FLASH_WAIT_S (default 15) bounds the wait for the reboot and
+the write once a Teensy is on the bus.
 
 Exit codes:
   0  flashed
@@ -39,14 +41,16 @@ Exit codes:
   4  bad image (not a well-formed Intel HEX file: record syntax, checksums,
      end-of-file record)
   5  no tool (teensy_loader_cli or python3 not found, or --install failed)
-  6  no board (the USB bus cannot be read, or no Teensy bootloader on it)
-  7  flashing failed (teensy_loader_cli failed or did not finish in time)
+  6  no board (the USB bus cannot be read, or no Teensy on it)
+  7  flashing failed (teensy_loader_cli failed or did not finish in time:
+     a running image refuses the reboot while the arm moves)
 
-Linux permissions: without root, the bootloader needs a udev rule, e.g. in
-/etc/udev/rules.d/49-teensy.rules:
+Linux permissions: without root, the bootloader and the running image need
+a udev rule, e.g. in /etc/udev/rules.d/49-teensy.rules:
   SUBSYSTEMS=="usb", ATTRS{idVendor}=="16c0", ATTRS{idProduct}=="0478", MODE:="0666"
+  SUBSYSTEMS=="usb", ATTRS{idVendor}=="16c0", ATTRS{idProduct}=="0483", MODE:="0666", ENV{ID_MM_DEVICE_IGNORE}="1"
 then: udevadm control --reload-rules && udevadm trigger. PJRC's rule file
-for every Teensy (00-teensy.rules) covers this pair as well.
+for every Teensy (00-teensy.rules) covers both pairs as well.
 EOF
 }
 
@@ -127,27 +131,39 @@ fi
 
 # 3. the board: read the bus from sysfs, at once
 [ -d "$SYS_USB" ] || die "$E_NO_BOARD" "cannot see the USB bus ($SYS_USB missing); nothing to wait for"
-HALFKAY=0 RUNNING=0
+HALFKAY=0 RUNNING=0 OLD=0
 for dev in "$SYS_USB"/*; do
   [ -f "$dev/idVendor" ] && [ -f "$dev/idProduct" ] || continue
   vid="$(cat "$dev/idVendor")"; pid="$(cat "$dev/idProduct")"
   case "$vid:$pid" in
     16c0:0478) HALFKAY=1 ;;
-    1209:0001|16c0:04[89]?) RUNNING=1 ;;
+    16c0:0483) RUNNING=1 ;;
+    1209:0001) OLD=1 ;;
   esac
 done
+SOFT=()
 if [ "$HALFKAY" = 0 ]; then
   if [ "$RUNNING" = 1 ]; then
-    die "$E_NO_BOARD" "a running board is on the bus but no bootloader: press the program button on the Teensy, then run this again"
+    SOFT=(-s)
+  elif [ "${OLD:-0}" = 1 ]; then
+    die "$E_NO_BOARD" "a board runs an image that does not answer the soft reboot (USB 1209:0001): press the program button on the Teensy, then run this again"
+  else
+    die "$E_NO_BOARD" "no Teensy (bootloader 16c0:0478 or running image 16c0:0483) on the bus: connect the board, or press its program button"
   fi
-  die "$E_NO_BOARD" "no Teensy bootloader (USB 16c0:0478) on the bus: connect the board and press its program button"
 fi
 
-# 4. write it (the bootloader is there: the wait only bounds the write)
-echo "$ME: writing $HEX"
+# 4. write it (a Teensy is there: the wait only bounds the reboot and the write)
+if [ "${#SOFT[@]}" -gt 0 ]; then
+  echo "$ME: asking the running image to reboot into the bootloader, then writing $HEX"
+else
+  echo "$ME: writing $HEX"
+fi
 rc=0
-timeout --foreground "$WAIT_S" teensy_loader_cli --mcu=TEENSY41 -w -v "$HEX" || rc=$?
+timeout --foreground "$WAIT_S" teensy_loader_cli --mcu=TEENSY41 "${SOFT[@]}" -w -v "$HEX" || rc=$?
 if [ "$rc" = 124 ]; then
+  if [ "${#SOFT[@]}" -gt 0 ]; then
+    die "$E_FLASH" "no bootloader within ${WAIT_S}s: the image refuses the reboot while the arm moves (stop it, or press the program button)"
+  fi
   die "$E_FLASH" "teensy_loader_cli did not finish within ${WAIT_S}s"
 elif [ "$rc" != 0 ]; then
   die "$E_FLASH" "teensy_loader_cli failed (exit $rc)"

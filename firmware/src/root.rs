@@ -327,6 +327,8 @@ impl Controller<'_> {
         rec.events = Events::new();
         self.kernel.tick_into(&rec.sense, request, &mut rec.act, &mut rec.events);
         self.flow.mark(Step::Supervise);
+        // for the main loop's reboot-into-the-bootloader decision
+        self.link.set_at_rest(at_rest(self.kernel.state(), self.kernel.moving()));
         if let Some(seq) = seq {
             let refused = rec.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
             if !refused {
@@ -385,6 +387,60 @@ impl Controller<'_> {
     /// Homing phase of every axis.
     pub fn homing_phases(&self) -> [Phase; AXES] {
         self.kernel.homing_phases()
+    }
+}
+
+/// The Teensy convention for "reboot into the bootloader": the host sets
+/// the USB serial line to this many baud (`teensy_loader_cli -s` sends the
+/// CDC SET_LINE_CODING request with it; so do the Arduino tools).
+pub const BOOTLOADER_BAUD: u32 = 134;
+
+/// The answer to a request to reboot into the bootloader.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bootloader {
+    /// The arm is at rest: the image stops its outputs and hands the chip
+    /// to the bootloader.
+    Reboot,
+    /// The arm is moving (or the tick has not yet run): refused, and
+    /// `BOOTLOADER_REFUSED MOVING` goes to the host.
+    RefusedMoving,
+}
+
+/// The tick's at-rest rule for the bootloader decision: nothing commanded
+/// to move (the kernel's `moving()`) and no homing or stop in progress (a
+/// homing ramp starts below the kernel's hold speed).
+pub const fn at_rest(state: State, moving: bool) -> bool {
+    !moving && !matches!(state, State::Homing | State::Stopping)
+}
+
+/// The decision: only an arm at rest ([`at_rest`] at the last tick) is
+/// handed to the bootloader, which stops stepping at once.
+pub const fn bootloader_decision(at_rest: bool) -> Bootloader {
+    if at_rest {
+        Bootloader::Reboot
+    } else {
+        Bootloader::RefusedMoving
+    }
+}
+
+/// A line-coding watcher: a request is the line's data rate becoming
+/// [`BOOTLOADER_BAUD`] (an edge, so a port left at 134 baud after a
+/// refusal does not ask again until it is set to another rate and back).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BootloaderBaud {
+    last: u32,
+}
+
+impl BootloaderBaud {
+    /// No rate seen yet.
+    pub const fn new() -> Self {
+        Self { last: 0 }
+    }
+    /// The line's current data rate; true once when it becomes
+    /// [`BOOTLOADER_BAUD`].
+    pub fn request(&mut self, data_rate: u32) -> bool {
+        let was = core::mem::replace(&mut self.last, data_rate);
+        data_rate == BOOTLOADER_BAUD && was != BOOTLOADER_BAUD
     }
 }
 
@@ -535,6 +591,25 @@ impl Host<'_> {
     pub fn queue_refused(&self) -> u32 {
         self.link.refused()
     }
+
+    /// A request to reboot into the bootloader ([`BootloaderBaud`] on the
+    /// image's USB port): [`bootloader_decision`] on the tick's at-rest
+    /// flag. Refused: `BOOTLOADER_REFUSED MOVING` is queued for `port` (a
+    /// report, so it waits behind nothing critical) and `port` is flushed;
+    /// the arm goes on. `Reboot`: the caller stops the outputs and enters
+    /// the bootloader.
+    pub fn bootloader_request<P: Port + ?Sized>(&mut self, port: &mut P) -> Bootloader {
+        let d = bootloader_decision(self.link.at_rest());
+        if d == Bootloader::RefusedMoving {
+            let open = port.is_open();
+            self.line.clear();
+            if self.line.push_str("BOOTLOADER_REFUSED MOVING\n").is_ok() {
+                self.tx.push(&self.line, Class::Report, open);
+            }
+            self.tx.flush(port);
+        }
+        d
+    }
 }
 
 #[cfg(test)]
@@ -591,5 +666,66 @@ mod tests {
         assert!(host.banner().as_str().ends_with(" reset=WATCHDOG\n"), "{}", host.banner().as_str());
         host.set_reset_cause(ResetCause::Lockup);
         assert!(host.banner().as_str().ends_with(" reset=LOCKUP\n"), "{}", host.banner().as_str());
+    }
+
+    /// A host port that keeps what it is given.
+    struct Wire(std::vec::Vec<u8>);
+    impl Port for Wire {
+        fn is_open(&self) -> bool {
+            true
+        }
+        fn read(&mut self) -> Option<u8> {
+            None
+        }
+        fn write(&mut self, bytes: &[u8]) -> usize {
+            self.0.extend_from_slice(bytes);
+            bytes.len()
+        }
+    }
+
+    /// The reboot-into-the-bootloader request: refused before the first
+    /// tick and whenever the tick reports the arm not at rest (a
+    /// `BOOTLOADER_REFUSED MOVING` line each time), honoured once a tick
+    /// found it at rest; the at-rest rule on the kernel's states; only the
+    /// line's change to 134 baud is a request.
+    #[test]
+    fn bootloader_request_is_honoured_at_rest_and_refused_while_moving() {
+        let link: &'static mut RootLink = std::boxed::Box::leak(std::boxed::Box::new(RootLink::new()));
+        let (mut controller, mut host) = new(&PAROL6_VALIDATED, link, HostConfig::USB);
+        let mut board = Feeds::default();
+        let mut wire = Wire(std::vec::Vec::new());
+        let refusals =
+            |w: &Wire| std::string::String::from_utf8_lossy(&w.0).matches("BOOTLOADER_REFUSED MOVING\n").count();
+        // before the first tick nothing says the arm is at rest
+        assert_eq!(host.bootloader_request(&mut wire), Bootloader::RefusedMoving);
+        assert_eq!(refusals(&wire), 1);
+        // the kernel waits for its encoders: nothing moves
+        for _ in 0..5 {
+            let _ = controller.tick(&mut board);
+        }
+        assert!(!controller.kernel().moving());
+        assert_eq!(host.bootloader_request(&mut wire), Bootloader::Reboot);
+        assert_eq!(refusals(&wire), 1);
+        // the tick's report of a moving arm (as `kernel_step` writes it)
+        controller.link.set_at_rest(false);
+        assert_eq!(host.bootloader_request(&mut wire), Bootloader::RefusedMoving);
+        assert_eq!(refusals(&wire), 2);
+        // the rule the tick applies
+        for state in [State::Boot, State::Unhomed, State::Operational, State::SoftEstop, State::Fault] {
+            assert!(at_rest(state, false), "{state:?}");
+            assert!(!at_rest(state, true), "{state:?}");
+        }
+        for state in [State::Homing, State::Stopping] {
+            assert!(!at_rest(state, false), "{state:?}");
+        }
+        // the request is the change to 134 baud, once
+        let mut baud = BootloaderBaud::new();
+        assert!(!baud.request(115_200));
+        assert!(baud.request(BOOTLOADER_BAUD));
+        assert!(!baud.request(BOOTLOADER_BAUD));
+        assert!(!baud.request(9600));
+        assert!(baud.request(BOOTLOADER_BAUD));
+        assert_eq!(bootloader_decision(true), Bootloader::Reboot);
+        assert_eq!(bootloader_decision(false), Bootloader::RefusedMoving);
     }
 }

@@ -41,7 +41,8 @@ printf ':00000001FF\n' >"$T/empty.hex"
 # buses: none, a hub only, a running board (the image), the bootloader
 usb_dev() { mkdir -p "$1/$2"; echo "$3" >"$1/$2/idVendor"; echo "$4" >"$1/$2/idProduct"; }
 usb_dev "$T/bus-hub" 1-0:1.0 1d6b 0002
-usb_dev "$T/bus-running" 1-0:1.0 1d6b 0002; usb_dev "$T/bus-running" 1-1 1209 0001
+usb_dev "$T/bus-old" 1-0:1.0 1d6b 0002; usb_dev "$T/bus-old" 1-1 1209 0001
+usb_dev "$T/bus-running" 1-0:1.0 1d6b 0002; usb_dev "$T/bus-running" 1-1 16c0 0483
 usb_dev "$T/bus-halfkay" 1-0:1.0 1d6b 0002; usb_dev "$T/bus-halfkay" 1-1 16c0 0478
 
 FAILS=0 N=0
@@ -78,8 +79,14 @@ check "install fails"        5 "could not install"      "PATH=$T/bin-apt:$T/bin"
 S=$(date +%s)
 check "no bus"               6 "cannot see the USB bus" "$P_TOOL" FLASH_SYS_USB="$T/no-such-dir" -- "$GOOD"
 [ $(( $(date +%s) - S )) -le 2 ] || { echo "FAIL no bus: waited"; FAILS=$((FAILS + 1)); }
-check "no board"             6 "no Teensy bootloader"   "$P_TOOL" FLASH_SYS_USB="$T/bus-hub" -- "$GOOD"
-check "running, no bootloader" 6 "press the program button" "$P_TOOL" FLASH_SYS_USB="$T/bus-running" -- "$GOOD"
+check "no board"             6 "no Teensy"              "$P_TOOL" FLASH_SYS_USB="$T/bus-hub" -- "$GOOD"
+check "old image, no soft reboot" 6 "press the program button" "$P_TOOL" FLASH_SYS_USB="$T/bus-old" -- "$GOOD"
+check "running, refuses (moving)" 7 "refuses the reboot while the arm moves" "$P_TOOL" FLASH_SYS_USB="$T/bus-running" STUB_SLEEP=5 FLASH_WAIT_S=1 STUB_LOG="$STUB_LOG" -- "$GOOD"
+rm -f "$STUB_LOG"
+check "running, soft reboot"  0 "asking the running image" "$P_TOOL" FLASH_SYS_USB="$T/bus-running" STUB_LOG="$STUB_LOG" -- "$GOOD"
+if [ "$(cat "$STUB_LOG" 2>/dev/null)" != "--mcu=TEENSY41 -s -w -v $GOOD" ]; then
+  echo "FAIL running, soft reboot: teensy_loader_cli got '$(cat "$STUB_LOG" 2>/dev/null)'"; FAILS=$((FAILS + 1))
+fi
 check "tool fails"           7 "failed (exit 1)"        "$P_TOOL" FLASH_SYS_USB="$T/bus-halfkay" STUB_RC=1 STUB_LOG="$STUB_LOG" -- "$GOOD"
 check "tool hangs"           7 "did not finish within 1s" "$P_TOOL" FLASH_SYS_USB="$T/bus-halfkay" STUB_SLEEP=5 FLASH_WAIT_S=1 STUB_LOG="$STUB_LOG" -- "$GOOD"
 rm -f "$STUB_LOG"

@@ -70,6 +70,10 @@ pub struct Link<S, const C: usize = 8, const T: usize = 16> {
     /// single flag, written by one side only: `Relaxed` suffices (no data
     /// is published through it).
     link_lost: AtomicBool,
+    /// The arm is at rest (set by the tick every tick from the kernel, read
+    /// by the main loop: a reboot into the bootloader is honoured only
+    /// then). Starts false; one writer, `Relaxed` as above.
+    at_rest: AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for Link<S, C, T> {
@@ -94,15 +98,23 @@ impl<S, const C: usize, const T: usize> Link<S, C, T> {
     pub const fn new() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::SIZES_OK;
-        Link { commands: Queue::new(), telemetry: Queue::new(), link_lost: AtomicBool::new(false) }
+        Link {
+            commands: Queue::new(),
+            telemetry: Queue::new(),
+            link_lost: AtomicBool::new(false),
+            at_rest: AtomicBool::new(false),
+        }
     }
 
     /// Splits into the main loop's end and the tick's end.
     pub fn split(&mut self) -> (HostEnd<'_, S, C, T>, TickEnd<'_, S, C, T>) {
         let (cmd_tx, cmd_rx) = self.commands.split();
         let (tel_tx, tel_rx) = self.telemetry.split();
-        let flag = &self.link_lost;
-        (HostEnd { cmd_tx, tel_rx, refused: 0, link_lost: flag }, TickEnd { cmd_rx, tel_tx, lost: 0, link_lost: flag })
+        let (flag, rest) = (&self.link_lost, &self.at_rest);
+        (
+            HostEnd { cmd_tx, tel_rx, refused: 0, link_lost: flag, at_rest: rest },
+            TickEnd { cmd_rx, tel_tx, lost: 0, link_lost: flag, at_rest: rest },
+        )
     }
 }
 
@@ -112,6 +124,7 @@ pub struct HostEnd<'a, S, const C: usize, const T: usize> {
     tel_rx: Consumer<'a, Telemetry<S>, T>,
     refused: u32,
     link_lost: &'a AtomicBool,
+    at_rest: &'a AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for HostEnd<'_, S, C, T> {
@@ -152,6 +165,10 @@ impl<S: Copy, const C: usize, const T: usize> HostEnd<'_, S, C, T> {
     pub fn set_link_lost(&self, lost: bool) {
         self.link_lost.store(lost, Ordering::Relaxed);
     }
+    /// The arm was at rest at the last tick (false before the first).
+    pub fn at_rest(&self) -> bool {
+        self.at_rest.load(Ordering::Relaxed)
+    }
 }
 
 /// The tick's end: receives commands, sends telemetry.
@@ -160,6 +177,7 @@ pub struct TickEnd<'a, S, const C: usize, const T: usize> {
     tel_tx: Producer<'a, Telemetry<S>, T>,
     lost: u32,
     link_lost: &'a AtomicBool,
+    at_rest: &'a AtomicBool,
 }
 
 impl<S, const C: usize, const T: usize> core::fmt::Debug for TickEnd<'_, S, C, T> {
@@ -199,6 +217,10 @@ impl<S: Copy, const C: usize, const T: usize> TickEnd<'_, S, C, T> {
     /// The host link is known to be gone (set by the main loop).
     pub fn link_lost(&self) -> bool {
         self.link_lost.load(Ordering::Relaxed)
+    }
+    /// Tells the main loop whether the arm is at rest (once per tick).
+    pub fn set_at_rest(&self, at_rest: bool) {
+        self.at_rest.store(at_rest, Ordering::Relaxed);
     }
 }
 

@@ -51,7 +51,7 @@ use hal_imxrt::pure::uart::{lpuart_divisor, BaudDivisor};
 
 use firmware::board::{Port, TickBoard};
 use firmware::image::{covered_len, ImageFault, Stamp};
-use firmware::root::{self, BootReport, Controller, Host, HostConfig, RootLink};
+use firmware::root::{self, BootReport, Bootloader, Controller, Host, HostConfig, RootLink};
 use kernel::config::{AXES, PAROL6, PAROL6_VALIDATED};
 use protocol::report::config_fingerprint;
 
@@ -334,6 +334,15 @@ fn main() -> ! {
             log.write_raw(drain.get(..n).unwrap_or(&[]));
         }
         log.flush();
+        // `teensy_loader_cli -s`: the USB line set to 134 baud asks for
+        // the bootloader; honoured only at rest, else refused on the wire.
+        #[cfg(not(feature = "serial1"))]
+        let asked = proto.bootloader_requested();
+        #[cfg(feature = "serial1")]
+        let asked = log.port_mut().bootloader_requested();
+        if asked && host.bootloader_request(&mut proto) == Bootloader::Reboot {
+            enter_bootloader();
+        }
         // Nothing moved on either port and no log frame: sleep until the
         // next interrupt (the tick, a byte, a USB event, room to transmit).
         let busy = proto.take_busy() | log.take_busy() | (n > 0);
@@ -526,6 +535,39 @@ fn fatal_stop() -> ! {
     }
     loop {
         cortex_m::asm::nop();
+    }
+}
+
+/// Hands the chip to the Teensy's bootloader (asked over USB, the arm at
+/// rest): interrupts off, every STEP output low as in [`fatal_stop`] (no
+/// panic marker: this is no fault), then `bkpt #251`, the breakpoint the
+/// Teensy 4.x bootloader chip watches for (Teensyduino's
+/// `_reboot_Teensyduino_` does the same); it presents HalfKay (16C0:0478)
+/// and `teensy_loader_cli` writes the new image. Should nothing take the
+/// breakpoint (no bootloader chip), it escalates to a HardFault, whose
+/// handler stops the same way and lets the watchdog reset the chip.
+fn enter_bootloader() -> ! {
+    cortex_m::interrupt::disable();
+    // SAFETY: interrupts are disabled and this function never returns, so
+    // the drivers that own these peripherals never run again; the aliases
+    // are used for the STEP shutdown only (as in `fatal_stop`).
+    unsafe {
+        let pwm1 = ral::pwm::PWM1::instance();
+        let pwm2 = ral::pwm::PWM2::instance();
+        let pwm3 = ral::pwm::PWM3::instance();
+        let pwm4 = ral::pwm::PWM4::instance();
+        let gpio1 = ral::gpio::GPIO1::instance();
+        let gpio2 = ral::gpio::GPIO2::instance();
+        let gpio3 = ral::gpio::GPIO3::instance();
+        let gpio4 = ral::gpio::GPIO4::instance();
+        let io = ral::iomuxc::IOMUXC::instance();
+        panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
+    }
+    loop {
+        // SAFETY: a breakpoint instruction; it touches no memory or
+        // register the program relies on, and control does not come back
+        // here with the chip in a state the program depends on.
+        unsafe { core::arch::asm!("bkpt #251") };
     }
 }
 

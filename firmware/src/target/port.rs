@@ -15,6 +15,7 @@ use usb_device::LangID;
 use usbd_serial::SerialPort;
 
 use firmware::board::Port;
+use firmware::root::BootloaderBaud;
 use hal_imxrt::periph::uart::Serial1;
 
 /// Bytes of the log ring (defmt frames; the decoder resynchronises after a loss).
@@ -25,14 +26,29 @@ pub struct Usb {
     dev: UsbDevice<'static, BusAdapter>,
     serial: SerialPort<'static, BusAdapter>,
     busy: bool,
+    baud: BootloaderBaud,
 }
 
 static EP_MEMORY: EndpointMemory<2048> = EndpointMemory::new();
 static EP_STATE: EndpointState = EndpointState::max_endpoints();
 static mut BUS: Option<UsbBusAllocator<BusAdapter>> = None;
 
-/// pid.codes test VID/PID (0x1209/0x0001); replace before any release.
-const VID_PID: UsbVidPid = UsbVidPid(0x1209, 0x0001);
+/// PJRC's pair for a Teensy running USB serial code (16C0:0483). Chosen
+/// because the tools a Teensy user has key on it: `teensy_loader_cli -s`
+/// opens exactly this pair to send its 134-baud reboot request (so the
+/// image can be re-flashed without opening the robot), PJRC's udev rules
+/// (`00-teensy.rules`) already grant users access to it and stop
+/// ModemManager probing it, and the Arduino/Teensyduino tools list it as a
+/// Teensy. The image runs only on a Teensy 4.1. An allocated pair (e.g.
+/// from pid.codes) would mark the device as this firmware's own but would
+/// lose `teensy_loader_cli -s` and need a udev rule of its own; the strings
+/// below say which firmware and version answers.
+const VID_PID: UsbVidPid = UsbVidPid(0x16C0, 0x0483);
+/// USB strings: who made it, what it is, which version (the serial-number
+/// string; one image per version, so the host sees which one runs).
+const MANUFACTURER: &str = "PAROL6 firmware";
+const PRODUCT: &str = "PAROL6 controller (Teensy 4.1)";
+const SERIAL: &str = concat!("parol6-fw-", env!("CARGO_PKG_VERSION"));
 
 impl Usb {
     /// Take USB1 and start the device stack.
@@ -48,15 +64,22 @@ impl Usb {
         let serial = SerialPort::new(alloc);
         let builder = UsbDeviceBuilder::new(alloc, VID_PID).device_class(usbd_serial::USB_CLASS_CDC);
         let builder = match builder.strings(&[StringDescriptors::new(LangID::EN_US)
-            .manufacturer("PAROL6")
-            .product("PAROL6 controller")
-            .serial_number("0")])
+            .manufacturer(MANUFACTURER)
+            .product(PRODUCT)
+            .serial_number(SERIAL)])
         {
             Ok(b) => b,
             Err(_) => super::halt(),
         };
         let dev = builder.build();
-        Self { dev, serial, busy: false }
+        Self { dev, serial, busy: false, baud: BootloaderBaud::new() }
+    }
+
+    /// The host asked for the bootloader: it set the line to 134 baud
+    /// (`firmware::root::BOOTLOADER_BAUD`, the CDC SET_LINE_CODING that
+    /// `teensy_loader_cli -s` sends). True once per change to that rate.
+    pub fn bootloader_requested(&mut self) -> bool {
+        self.baud.request(self.serial.line_coding().data_rate())
     }
 }
 
@@ -173,6 +196,11 @@ impl<P: Port> LogPort<P> {
     /// Service the hardware.
     pub fn poll(&mut self) {
         self.port.poll();
+    }
+    /// The port itself (the USB port's bootloader request).
+    #[cfg_attr(not(feature = "serial1"), allow(dead_code))]
+    pub fn port_mut(&mut self) -> &mut P {
+        &mut self.port
     }
     /// Queue raw bytes as far as they fit.
     pub fn write_raw(&mut self, bytes: &[u8]) {
