@@ -226,6 +226,15 @@ pub struct Encoder {
     pub line: Line,
     /// Pending glitch: offset added to the next `frames` frames.
     pub glitch: Option<(i32, u32)>,
+    /// Fault injection: a reversed encoder (a magnet mounted the other way
+    /// round): every frame reads the count mirrored about the count of the
+    /// first frame after the injection (`Some(mirror)` once that frame is
+    /// made), so the reading does not jump but runs the other way.
+    pub reversed: Option<Option<i64>>,
+    /// Fault injection: a frozen but valid reading (an encoder whose
+    /// electronics stopped updating): every frame repeats the count of the
+    /// first frame after the injection.
+    pub frozen: Option<Option<i64>>,
 }
 
 impl Encoder {
@@ -246,6 +255,8 @@ impl Encoder {
             noise,
             line: Line::Ok,
             glitch: None,
+            reversed: None,
+            frozen: None,
         }
     }
 
@@ -331,12 +342,19 @@ impl Encoder {
         while self.next_start < horizon {
             let start = self.next_start;
             let mut c = floor_i64(angle_at(start));
+            if let Some(m) = self.reversed.as_mut() {
+                let m = *m.get_or_insert(c);
+                c = 2 * m - c;
+            }
             if self.noise > 0.0 {
                 c += round_i64(rng.normal() * self.noise);
             }
             if let Some((off, n)) = self.glitch {
                 c += i64::from(off);
                 self.glitch = if n > 1 { Some((off, n - 1)) } else { None };
+            }
+            if let Some(f) = self.frozen.as_mut() {
+                c = *f.get_or_insert(c);
             }
             let count = c.rem_euclid(i64::from(COUNTS_PER_REV)) as f64;
             let high_end = start + (f64::from(START_CLOCKS) + count) * CYCLES_PER_PWM_CLOCK * self.clock_scale;

@@ -203,6 +203,16 @@ impl Plant {
     pub fn glitch(&mut self, i: usize, offset: i32, frames: u32) {
         self.axes[i].encoder.glitch = Some((offset, frames.max(1)));
     }
+    /// Fault injection: axis `i`'s encoder reversed (from the next frame on,
+    /// mirrored about that frame's count) or restored.
+    pub fn reverse_encoder(&mut self, i: usize, on: bool) {
+        self.axes[i].encoder.reversed = if on { Some(None) } else { None };
+    }
+    /// Fault injection: axis `i`'s encoder frozen at its next frame's count
+    /// (a valid, unchanging reading) or restored.
+    pub fn freeze_encoder(&mut self, i: usize, on: bool) {
+        self.axes[i].encoder.frozen = if on { Some(None) } else { None };
+    }
     /// Fault injection: the encoder line of axis `i`.
     pub fn set_line(&mut self, i: usize, line: Line) {
         self.axes[i].encoder.line = line;

@@ -16,6 +16,7 @@ use kernel::{Event, FaultReason, HomingStatus, RequestKind, State};
 use monitor::{Monitor, Sent};
 
 use crate::client::{driver_view, DriverView};
+use crate::encoder::Line;
 use crate::plant::PlantOptions;
 use crate::report::{JointError, Report};
 use crate::root::{Root, Step};
@@ -401,7 +402,15 @@ impl<'a> Run<'a> {
                 }
             }
             Action::Glitch { joint, offset, frames } => plant.glitch(*joint, *offset, *frames),
-            Action::Encoder(j, line) => plant.set_line(*j, *line),
+            Action::Encoder(j, line) => {
+                plant.set_line(*j, *line);
+                if *line == Line::Ok {
+                    plant.reverse_encoder(*j, false);
+                    plant.freeze_encoder(*j, false);
+                }
+            }
+            Action::EncoderReversed(j) => plant.reverse_encoder(*j, true),
+            Action::EncoderFrozen(j) => plant.freeze_encoder(*j, true),
             Action::Switch(j, f) => plant.force_switch(*j, *f),
             Action::Runaway(j, v) => plant.set_disturbance(*j, *v),
             Action::LostSteps(j, f) => plant.set_lost_steps(*j, *f),

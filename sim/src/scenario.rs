@@ -202,8 +202,15 @@ pub enum Action {
         /// Frames affected.
         frames: u32,
     },
-    /// Set an encoder line's state.
+    /// Set an encoder line's state (`Line::Ok` also ends a reversed or
+    /// frozen reading).
     Encoder(usize, Line),
+    /// A reversed encoder: from the next frame on, the count runs the other
+    /// way (mirrored about that frame's count, so it does not jump).
+    EncoderReversed(usize),
+    /// A frozen but valid encoder reading: every later frame repeats the
+    /// next frame's count.
+    EncoderFrozen(usize),
     /// Force a switch closed (`Some(true)`), open, or back to its position.
     Switch(usize, Option<bool>),
     /// Uncommanded joint velocity (rad/s).
@@ -549,11 +556,16 @@ fn parse_action(text: &str) -> Result<Action> {
                 return Ok(Action::Glitch { joint: joint(j)?, offset, frames: u32::MAX });
             }
             let [j, st] = two(&w)?;
+            match st {
+                "reversed" => return Ok(Action::EncoderReversed(joint(j)?)),
+                "frozen" => return Ok(Action::EncoderFrozen(joint(j)?)),
+                _ => {}
+            }
             let line = match st {
                 "ok" => Line::Ok,
                 "lost" | "low" => Line::StuckLow,
                 "high" => Line::StuckHigh,
-                o => bail!("encoder state must be ok, lost (stuck low) or high, not `{o}`"),
+                o => bail!("encoder state must be ok, lost (stuck low), high, reversed or frozen, not `{o}`"),
             };
             Action::Encoder(joint(j)?, line)
         }
@@ -849,7 +861,7 @@ pub fn unescape(s: &str) -> Result<Vec<u8>> {
 }
 
 /// The built-in scenarios, in the order they run.
-pub const BUILTIN: [(&str, &str); 26] = [
+pub const BUILTIN: [(&str, &str); 28] = [
     ("startup-homing", include_str!("../scenarios/startup-homing.scn")),
     ("driver-trajectory-100hz", include_str!("../scenarios/driver-trajectory-100hz.scn")),
     ("driver-stream-cut", include_str!("../scenarios/driver-stream-cut.scn")),
@@ -876,6 +888,8 @@ pub const BUILTIN: [(&str, &str); 26] = [
     ("stream-stop-at-speed", include_str!("../scenarios/stream-stop-at-speed.scn")),
     ("burst-stream", include_str!("../scenarios/burst-stream.scn")),
     ("tick-overrun", include_str!("../scenarios/tick-overrun.scn")),
+    ("encoder-frozen", include_str!("../scenarios/encoder-frozen.scn")),
+    ("encoder-reversed", include_str!("../scenarios/encoder-reversed.scn")),
 ];
 
 /// Parses the built-in scenarios.
