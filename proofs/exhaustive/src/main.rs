@@ -187,7 +187,9 @@ fn main() {
         distinct(|j| (PAROL6.joints[j].max_velocity, PAROL6.joints[j].setpoint_acceleration()))
     {
         let k = kernel::interp::profile::<Fx>(vmax, amax, PAROL6.tick_hz);
-        let same = joints.iter().all(|&j| kernel::interp::joint_profile::<Fx>(&PAROL6.joints[j], PAROL6.tick_hz) == k);
+        // `distinct` names joints from 1.
+        let same =
+            joints.iter().all(|&j| kernel::interp::joint_profile::<Fx>(&PAROL6.joints[j - 1], PAROL6.tick_hz) == k);
         assert!(same, "the sweep's profile is not the kernel's for J{joints:?}");
         let dv = k.dv;
         results.push(sweep(
