@@ -4,21 +4,12 @@
 //! keeps real time, and the image must latch
 //! `FAULT HARDWARE SELF_TEST code=130` (`firmware::code::CLOCK`).
 
+mod common;
+
+use common::{lines, run};
 use twin::{boot_twin, Twin, MS};
 
 const CLOCK_FAULT: &str = "FAULT HARDWARE SELF_TEST code=130";
-
-fn run(t: &mut Twin, until_ms: u64) {
-    if let Err(f) = t.run_until(until_ms * MS) {
-        panic!("image stopped: {f}");
-    }
-}
-
-fn lines(t: &Twin) -> Vec<String> {
-    let text = t.board().serial_text();
-    let done = text.rfind('\n').map_or("", |i| &text[..i]);
-    done.lines().map(str::to_owned).collect()
-}
 
 /// Runs in steps of 5 ms until `until_ms`; the emulated time (ms) at which
 /// the clock fault line was first complete on Serial1, if it was.

@@ -5,21 +5,12 @@
 //! `FAULT HARDWARE SELF_TEST code=131` (`firmware::code::RAM`) on Serial1,
 //! no tick, no STEP pulse, and again after each watchdog reset.
 
-use twin::{boot_twin, Twin, MS};
+mod common;
+
+use common::{lines, run};
+use twin::boot_twin;
 
 const RAM_FAULT: &str = "FAULT HARDWARE SELF_TEST code=131";
-
-fn run(t: &mut Twin, until_ms: u64) {
-    if let Err(f) = t.run_until(until_ms * MS) {
-        panic!("image stopped: {f}");
-    }
-}
-
-fn lines(t: &Twin) -> Vec<String> {
-    let text = t.board().serial_text();
-    let done = text.rfind('\n').map_or("", |i| &text[..i]);
-    done.lines().map(str::to_owned).collect()
-}
 
 /// Cells stuck at 0 and at 1, near the start, inside and near the end of
 /// both statics: each refuses the start within the first boot.

@@ -5,21 +5,12 @@
 //! names it in the boot banner (`reset=`) and, after a watchdog reset,
 //! latches `FAULT HARDWARE SELF_TEST code=129` until `<ENABLE>`.
 
+mod common;
+
+use common::{lines, run};
 use twin::{boot_twin, Twin, MS};
 
 const WATCHDOG_FAULT: &str = "FAULT HARDWARE SELF_TEST code=129";
-
-fn run(t: &mut Twin, until_ms: u64) {
-    if let Err(f) = t.run_until(until_ms * MS) {
-        panic!("image stopped: {f}");
-    }
-}
-
-fn lines(t: &Twin) -> Vec<String> {
-    let text = t.board().serial_text();
-    let done = text.rfind('\n').map_or("", |i| &text[..i]);
-    done.lines().map(str::to_owned).collect()
-}
 
 /// The time (cycles) at which the `n`-th (from 1) line on Serial1 that
 /// contains `text` was complete (a reset may cut the line before it short,
