@@ -11,14 +11,15 @@
 #        FUZZ_JOBS      parallel fuzzing processes per target (default 1;
 #                       above 1, libFuzzer's -fork=N over the cores)
 #        FUZZ_MAX_LEN   longest input in bytes (default 4096)
-# Installs what it needs: a nightly toolchain (minimal profile) and cargo-fuzz.
+# Installs what it needs: a nightly toolchain (minimal profile) and cargo-fuzz (pinned).
 set -euo pipefail
 SECS="${1:-30}"
 cd "$(dirname "$0")"
 
 . ../../ci/nightly.sh  # (the working directory is protocol/fuzz here)
-if ! cargo +"$NIGHTLY" fuzz --version >/dev/null 2>&1; then
-    cargo install cargo-fuzz --locked
+CARGO_FUZZ_VERSION=0.13.2  # pinned: a fresh clone builds the same fuzz driver
+if ! cargo +"$NIGHTLY" fuzz --version 2>/dev/null | grep -q " $CARGO_FUZZ_VERSION\$"; then
+    cargo install cargo-fuzz --version "$CARGO_FUZZ_VERSION" --locked
 fi
 
 ALL="framer_parser receive_path kernel_ticks"
