@@ -14,4 +14,5 @@ pub mod mt6816;
 pub mod pins;
 pub mod reset_cause;
 pub mod step;
+pub mod tmc5160;
 pub mod uart;

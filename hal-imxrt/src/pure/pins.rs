@@ -63,7 +63,7 @@
 //! route: `GPIO_B1_01` ALT1 = `XBAR1_INOUT15` and the GPR6 bit from the NXP
 //! SDK pin/GPR headers; the input number from its XBARA1 input table.
 
-/// i.MXRT1062 pads reachable from Teensy 4.1 pins 0..=37.
+/// i.MXRT1062 pads reachable from Teensy 4.1 pins 0..=41.
 #[allow(non_camel_case_types, missing_docs)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pad {
@@ -75,12 +75,16 @@ pub enum Pad {
     GPIO_AD_B1_01,
     GPIO_AD_B1_02,
     GPIO_AD_B1_03,
+    GPIO_AD_B1_04,
+    GPIO_AD_B1_05,
     GPIO_AD_B1_06,
     GPIO_AD_B1_07,
     GPIO_AD_B1_08,
     GPIO_AD_B1_09,
     GPIO_AD_B1_10,
     GPIO_AD_B1_11,
+    GPIO_AD_B1_12,
+    GPIO_AD_B1_13,
     GPIO_AD_B1_14,
     GPIO_AD_B1_15,
     GPIO_B0_00,
@@ -233,7 +237,7 @@ const fn qt(module: u8, channel: u8, daisy: Option<u8>) -> Option<QtimerFn> {
     Some(QtimerFn { module, channel, alt: 1, daisy })
 }
 
-/// Teensy 4.1 pin database (pins 0..=37).
+/// Teensy 4.1 pin database (pins 0..=41).
 pub const fn teensy41_pin(pin: u8) -> Option<TeensyPin> {
     use Pad::*;
     use PwmOutput::{A, B};
@@ -276,6 +280,10 @@ pub const fn teensy41_pin(pin: u8) -> Option<TeensyPin> {
         35 => (GPIO_B1_12, g(2, 28), None, None),
         36 => (GPIO_B1_02, g(2, 18), pwm(2, 3, A, 6), None),
         37 => (GPIO_B1_03, g(2, 19), pwm(2, 3, B, 6), None),
+        38 => (GPIO_AD_B1_12, g(1, 28), None, None),
+        39 => (GPIO_AD_B1_13, g(1, 29), None, None),
+        40 => (GPIO_AD_B1_04, g(1, 20), None, None),
+        41 => (GPIO_AD_B1_05, g(1, 21), None, None),
         _ => return None,
     };
     Some(TeensyPin { pin, pad, gpio, pwm, qtimer })
@@ -448,6 +456,110 @@ pub const J6_PIN36_PIN_MAP: PinMap = PinMap { step: [2, 5, 6, 8, 4, 36], ..DEFAU
 
 const _: () = assert!(check(&DEFAULT_PIN_MAP).is_ok());
 
+/// An LPSPI signal on a pad: the pad's ALT and the value of the signal's
+/// select-input (daisy) register that picks this pad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpiPad {
+    /// Teensy pin.
+    pub pin: u8,
+    /// Processor pad.
+    pub pad: Pad,
+    /// IOMUXC ALT of the LPSPI3 signal.
+    pub alt: u8,
+    /// `IOMUXC_LPSPI3_<signal>_SELECT_INPUT` value for this pad.
+    pub daisy: u8,
+}
+
+/// The TMC5160 drivers' SPI link (firmware feature `tmc5160-spi`): LPSPI3
+/// on its Teensy 4.1 "SPI1" pads, mode 3, and one chip select per driver as
+/// a plain GPIO output (active low, driven high at boot before the pad is
+/// switched to GPIO).
+///
+/// | signal | Teensy pin | pad | function |
+/// |---|---:|---|---|
+/// | SCK  | 27 | GPIO_AD_B1_15 | LPSPI3_SCK, ALT2, SCK select input 1 |
+/// | SDO (MOSI, to every driver's SDI) | 26 | GPIO_AD_B1_14 | LPSPI3_SDO, ALT2, SDO select input 1 |
+/// | SDI (MISO, from every driver's SDO) | 39 | GPIO_AD_B1_13 | LPSPI3_SDI, ALT2, SDI select input 1 |
+/// | CS J1..J6 | 38, 40, 41, 17, 16, 28 | AD_B1_12, AD_B1_04, AD_B1_05, AD_B1_06, AD_B1_07, EMC_32 | GPIO |
+///
+/// The ALT and select-input values are those of `imxrt-iomuxc`'s i.MXRT1060
+/// LPSPI table (LPSPI3 SCK/SDO/SDI on GPIO_AD_B1_15/14/13, ALT2, daisy 1);
+/// the pins from `teensy4-pins` (pin 39 = GPIO_AD_B1_13, 40/41 =
+/// GPIO_AD_B1_04/05, 38 = GPIO_AD_B1_12). None of these pins is in the
+/// axis map, Serial1 or the LED (checked by [`check_tmc`] at compile time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TmcWiring {
+    /// LPSPI3 SCK.
+    pub sck: SpiPad,
+    /// LPSPI3 SDO (controller out).
+    pub sdo: SpiPad,
+    /// LPSPI3 SDI (controller in).
+    pub sdi: SpiPad,
+    /// Chip select of the driver of J1..J6 (GPIO, active low).
+    pub cs: [u8; 6],
+}
+
+/// The Teensy LED (pin 13), which the image drives on a fatal fault.
+pub const LED_PIN: u8 = 13;
+
+/// The TMC5160 wiring of this firmware (see [`TmcWiring`]).
+pub const TMC_WIRING: TmcWiring = TmcWiring {
+    sck: SpiPad { pin: 27, pad: Pad::GPIO_AD_B1_15, alt: 2, daisy: 1 },
+    sdo: SpiPad { pin: 26, pad: Pad::GPIO_AD_B1_14, alt: 2, daisy: 1 },
+    sdi: SpiPad { pin: 39, pad: Pad::GPIO_AD_B1_13, alt: 2, daisy: 1 },
+    cs: [38, 40, 41, 17, 16, 28],
+};
+
+/// Check the TMC5160 wiring against an axis map: every pin known, each SPI
+/// pin on the pad its record names, no pin used twice (within the wiring,
+/// by the map, Serial1 or the LED).
+pub const fn check_tmc(map: &PinMap, w: &TmcWiring) -> Result<(), PinMapError> {
+    let spi = [w.sck, w.sdo, w.sdi];
+    let mut rest: &[SpiPad] = &spi;
+    while let Some((s, tail)) = rest.split_first() {
+        match teensy41_pin(s.pin) {
+            Some(tp) if pad_eq(tp.pad, s.pad) => {}
+            _ => return Err(PinMapError::UnknownPin(s.pin)),
+        }
+        rest = tail;
+    }
+    let [c0, c1, c2, c3, c4, c5] = w.cs;
+    let own = [w.sck.pin, w.sdo.pin, w.sdi.pin, c0, c1, c2, c3, c4, c5];
+    let taken = map.all_pins();
+    let mut rest: &[u8] = &own;
+    while let Some((&p, tail)) = rest.split_first() {
+        if teensy41_pin(p).is_none() {
+            return Err(PinMapError::UnknownPin(p));
+        }
+        if p == LED_PIN {
+            return Err(PinMapError::PinUsedTwice(p));
+        }
+        let mut later: &[u8] = tail;
+        while let Some((&q, t2)) = later.split_first() {
+            if p == q {
+                return Err(PinMapError::PinUsedTwice(q));
+            }
+            later = t2;
+        }
+        let mut other: &[u8] = &taken;
+        while let Some((&q, t2)) = other.split_first() {
+            if p == q {
+                return Err(PinMapError::PinUsedTwice(p));
+            }
+            other = t2;
+        }
+        rest = tail;
+    }
+    Ok(())
+}
+
+const fn pad_eq(a: Pad, b: Pad) -> bool {
+    a as u8 == b as u8
+}
+
+const _: () = assert!(check_tmc(&DEFAULT_PIN_MAP, &TMC_WIRING).is_ok());
+const _: () = assert!(check_tmc(&J6_PIN36_PIN_MAP, &TMC_WIRING).is_ok());
+
 // Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
 #[allow(clippy::arithmetic_side_effects)]
@@ -543,7 +655,7 @@ mod tests {
 
     #[test]
     fn database_is_self_consistent() {
-        for pin in 0..=37u8 {
+        for pin in 0..=41u8 {
             let p = teensy41_pin(pin).unwrap();
             assert_eq!(p.pin, pin);
             assert!((1..=4).contains(&p.gpio.port) && p.gpio.bit < 32);
@@ -552,6 +664,28 @@ mod tests {
                 assert_ne!(teensy41_pin(other).unwrap().pad, p.pad, "{pin} {other}");
             }
         }
-        assert!(teensy41_pin(38).is_none());
+        assert!(teensy41_pin(42).is_none());
+    }
+
+    #[test]
+    fn tmc_wiring_pads_and_conflicts() {
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &TMC_WIRING), Ok(()));
+        assert_eq!(teensy41_pin(27).unwrap().pad, Pad::GPIO_AD_B1_15);
+        assert_eq!(teensy41_pin(26).unwrap().pad, Pad::GPIO_AD_B1_14);
+        assert_eq!(teensy41_pin(39).unwrap().pad, Pad::GPIO_AD_B1_13);
+        let cs_bits = TMC_WIRING.cs.map(|p| teensy41_pin(p).unwrap().gpio);
+        assert_eq!(cs_bits, [g(1, 28), g(1, 20), g(1, 21), g(1, 22), g(1, 23), g(3, 18)]);
+        // a chip select on a limit input, on the LED, twice, or on an SPI pin
+        let w = TmcWiring { cs: [20, 40, 41, 17, 16, 28], ..TMC_WIRING };
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &w), Err(PinMapError::PinUsedTwice(20)));
+        let w = TmcWiring { cs: [13, 40, 41, 17, 16, 28], ..TMC_WIRING };
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &w), Err(PinMapError::PinUsedTwice(13)));
+        let w = TmcWiring { cs: [38, 38, 41, 17, 16, 28], ..TMC_WIRING };
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &w), Err(PinMapError::PinUsedTwice(38)));
+        let w = TmcWiring { cs: [27, 40, 41, 17, 16, 28], ..TMC_WIRING };
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &w), Err(PinMapError::PinUsedTwice(27)));
+        // an SPI record whose pad is not its pin's
+        let w = TmcWiring { sdi: SpiPad { pin: 38, ..TMC_WIRING.sdi }, ..TMC_WIRING };
+        assert_eq!(check_tmc(&DEFAULT_PIN_MAP, &w), Err(PinMapError::UnknownPin(38)));
     }
 }
