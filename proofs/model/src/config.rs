@@ -1,0 +1,76 @@
+//! The arm configuration the model runs on: PAROL6 with its timers shortened
+//! within the configuration rules and three named relaxations.
+
+use kernel::config::{ArmConfig, AXES};
+use proofs::setup::PROOF_CONFIG;
+
+pub(crate) const MODEL_CONFIG: ArmConfig = {
+    let mut c = PROOF_CONFIG;
+    let mut i = 0;
+    while i < AXES {
+        c.joints[i].homing.timeout_ms = 8;
+        // (max_acceleration stays PAROL6's: with the 100 ms ramp restored,
+        // `check` bounds it by the ramp and the stopping overrun.)
+        i += 1;
+    }
+    c.segment_min_ms = 1;
+    c.segment_max_ms = 1;
+    // The rule's minimum (two ticks). The kernel's state keeps its boot tick
+    // count after boot (`Hash for Kernel` includes it), so every boot length
+    // multiplies the whole state space (measured on the small configuration:
+    // 487,087 states with 2 ms; with 50 ms, over 6.5 million and unfinished
+    // after 250 s).
+    c.boot_timeout_ms = 2;
+    c
+};
+
+/// What `MODEL_CONFIG` relaxes of `kernel::config::check` (the rule each
+/// breaks); the same three as `proofs::setup::PROOF_RELAXATIONS`.
+pub(crate) const MODEL_RELAXATIONS: [(&str, &str); 3] = [
+    ("joints[*].homing.backoff = 0", "homing back-off must be in (0, 0.5) rad"),
+    (
+        "joints[*].homing.timeout_ms = 8",
+        "homing timeout shorter than 1.2x the nominal homing time: homing is impossible",
+    ),
+    ("soft_stop_ms = 4", "soft-stop ramp decelerates faster than max_acceleration"),
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kernel::config::PAROL6;
+
+    #[test]
+    fn model_config_relaxes_exactly_the_named_rules() {
+        use kernel::config::check;
+        let mut c = MODEL_CONFIG;
+        for (j, p) in c.joints.iter_mut().zip(PAROL6.joints.iter()) {
+            j.homing.backoff = p.homing.backoff;
+            j.homing.timeout_ms = p.homing.timeout_ms;
+        }
+        c.soft_stop_ms = PAROL6.soft_stop_ms;
+        assert_eq!(check(&c), Ok(()), "without the relaxations the model's configuration passes check");
+        let mut one = c;
+        one.soft_stop_ms = 4;
+        assert_eq!(check(&one), Err(MODEL_RELAXATIONS[2].1));
+        let mut one = c;
+        one.joints.iter_mut().for_each(|j| j.homing.backoff = 0.0);
+        assert_eq!(check(&one), Err(MODEL_RELAXATIONS[0].1));
+        let mut one = c;
+        one.joints.iter_mut().for_each(|j| j.homing.timeout_ms = 8);
+        assert_eq!(check(&one), Err(MODEL_RELAXATIONS[1].1));
+
+        // Everything else is PAROL6 or shortened within the rules.
+        c.command_timeout_ms = PAROL6.command_timeout_ms;
+        c.soft_stop_ms = PAROL6.soft_stop_ms;
+        c.segment_min_ms = PAROL6.segment_min_ms;
+        c.segment_max_ms = PAROL6.segment_max_ms;
+        c.boot_timeout_ms = PAROL6.boot_timeout_ms;
+        c.homing_settle_ms = PAROL6.homing_settle_ms;
+        for (j, p) in c.joints.iter_mut().zip(PAROL6.joints.iter()) {
+            j.max_acceleration = p.max_acceleration;
+            j.homing.switch_position = p.homing.switch_position;
+        }
+        assert_eq!(c, PAROL6);
+    }
+}

@@ -1,0 +1,55 @@
+//! A model state: the kernel and the little of the plant the properties need.
+
+use crate::identity::ModelScalar;
+use kernel::config::AXES;
+use kernel::{Kernel, Scalar};
+use std::hash::{DefaultHasher, Hash, Hasher};
+
+/// The J1 encoder as seen by the plant: the count it was (re)initialised
+/// from (every other count differs by more than the plausibility window),
+/// and the current run of invalid samples (frozen one above the limit: the
+/// count is lost until an enable re-initialises J1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct J1 {
+    pub(crate) seen: bool,
+    pub(crate) reference: u16,
+    pub(crate) run: u8,
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct St<S: Scalar> {
+    pub(crate) k: Kernel<S>,
+    /// The transition checks violated on the way into this state (a bit per
+    /// `Check`; checked on every transition, so no history is needed).
+    pub(crate) violated: u64,
+    /// An enable has been accepted at some point (for reachability only).
+    pub(crate) ever_enabled: bool,
+    pub(crate) j1: J1,
+    /// The soft-stop ramp: its tick (1 on the timeout tick) and the outputs
+    /// it started from.
+    pub(crate) ramp: Option<(u32, [S; AXES])>,
+}
+
+impl<S: ModelScalar> St<S> {
+    fn fingerprint(&self) -> u64 {
+        let mut h = DefaultHasher::new();
+        self.hash(&mut h);
+        h.finish()
+    }
+}
+
+impl<S: ModelScalar> Hash for St<S> {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        S::hash_kernel(&self.k, h);
+        (self.violated, self.ever_enabled, self.j1).hash(h);
+        // The ramp's start equals the kernel's Stopping v0 (hashed above);
+        // its tick is the kernel's k + 1.
+        self.ramp.map(|(k, _)| k).hash(h);
+    }
+}
+
+impl<S: ModelScalar> PartialEq for St<S> {
+    fn eq(&self, other: &Self) -> bool {
+        self.fingerprint() == other.fingerprint()
+    }
+}
