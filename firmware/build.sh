@@ -5,6 +5,7 @@
 #   FEATURES=serial1 firmware/build.sh   # protocol on Serial1 (pins 0/1) instead of USB CDC
 #   SKIP_REPRO=1 firmware/build.sh       # skip the determinism check (re-links, second directory)
 #   REPRO_RELINKS=10 firmware/build.sh   # re-link the image 10 times instead of 5
+#   SKIP_STACK=1 firmware/build.sh       # skip the nightly stack-size build (second image of one test run)
 #
 # Writes target/firmware/parol6.elf and parol6.hex (Intel HEX for
 # `teensy_loader_cli --mcu=TEENSY41`). Exits non-zero if the build fails, if
@@ -141,7 +142,9 @@ python3 "$ROOT/firmware/tools/size_by_crate.py" "$BIN/llvm-nm" "$OUT/parol6.elf"
 
 echo "== tick handler: panic paths and stack"
 STACK_ELF=""
-if [ "$HAVE_NIGHTLY" = 1 ]; then
+if [ -n "${SKIP_STACK:-}" ]; then
+  echo "(SKIP_STACK: stack not measured)"
+elif [ "$HAVE_NIGHTLY" = 1 ]; then
   SDIR="$CARGO_TARGET_DIR/stack-sizes"
   if CARGO_TARGET_DIR="$SDIR" RUSTFLAGS="-Z emit-stack-sizes" \
        cargo +nightly build --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \

@@ -14,3 +14,10 @@ ELF="${CARGO_TARGET_DIR:-$ROOT/target/fw-build}/thumbv7em-none-eabihf/release/pa
 [ -f "$ELF" ] || ELF="$ROOT/target/firmware/parol6.elf"
 cp "$ELF" target/twin/parol6-serial1.elf
 echo "twin image: target/twin/parol6-serial1.elf"
+# The same image with the drivers' enable output (firmware feature
+# `driver-enable`) for twin/tests/driver_enable.rs; the tick's stack is
+# measured on the image above (SKIP_STACK: no second nightly build).
+FEATURES="serial1 driver-enable" SKIP_REPRO=1 SKIP_STACK=1 firmware/build.sh >target/twin/driver-enable-build.log 2>&1 \
+  || { tail -n 20 target/twin/driver-enable-build.log; echo "(firmware/build.sh reported a check failure for the driver-enable image)"; }
+cp "$ELF" target/twin/parol6-serial1-driver-enable.elf
+echo "twin image: target/twin/parol6-serial1-driver-enable.elf"

@@ -37,6 +37,13 @@ pub trait TickBoard {
     fn clock_fault(&mut self) -> bool {
         false
     }
+    /// Drive the stepper drivers' enable output: `on` is
+    /// [`crate::driver_enable::drivers_enabled`] of the kernel's state
+    /// after this tick's step, so the drivers are de-energised in the tick
+    /// a fault is latched. Called once per tick, before the step commands.
+    /// A board without the output (the default image, the simulator) does
+    /// nothing.
+    fn drivers_enable(&mut self, _on: bool) {}
 }
 
 /// A byte link to the host (USB CDC, Serial1, a pseudo-terminal).

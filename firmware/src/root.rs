@@ -343,6 +343,7 @@ impl Controller<'_> {
     fn act_step<B: TickBoard + ?Sized>(&mut self, board: &mut B) {
         let refused = crate::act_into(&self.rec.act.step_rate, &self.step_cfg, &mut self.rec.cmds);
         self.flow.mark(Step::Act);
+        board.drivers_enable(crate::driver_enable::drivers_enabled(self.kernel.state()));
         board.apply(&self.rec.cmds);
         self.flow.mark(Step::StepCommands);
         if let Some(axis) = refused {
@@ -623,6 +624,8 @@ mod tests {
     #[derive(Default)]
     struct Feeds {
         feeds: u32,
+        /// Every `drivers_enable` call, in order.
+        enables: std::vec::Vec<bool>,
     }
 
     impl TickBoard for Feeds {
@@ -643,6 +646,9 @@ mod tests {
             false
         }
         fn boot_wait_ms(&mut self) {}
+        fn drivers_enable(&mut self, on: bool) {
+            self.enables.push(on);
+        }
     }
 
     #[test]
@@ -654,6 +660,24 @@ mod tests {
             let _ = controller.tick(&mut board);
             assert_eq!(board.feeds, n);
         }
+        assert!(!controller.flow_broken());
+    }
+
+    /// Every tick sets the enable output once, to the decision for the
+    /// kernel's state after its step: off while the encoders are awaited
+    /// and the arm is unhomed (the moving states are shown on the twin).
+    #[test]
+    fn every_tick_sets_the_driver_enable_output_once_from_the_state() {
+        let mut link = RootLink::new();
+        let (mut controller, _host) = new(&PAROL6_VALIDATED, &mut link, HostConfig::USB);
+        let mut board = Feeds::default();
+        for n in 1..=50 {
+            let _ = controller.tick(&mut board);
+            assert_eq!(board.enables.len(), n);
+            let want = crate::driver_enable::drivers_enabled(controller.kernel().state());
+            assert_eq!(board.enables.last(), Some(&want), "tick {n}: {:?}", controller.kernel().state());
+        }
+        assert!(board.enables.iter().all(|&on| !on));
         assert!(!controller.flow_broken());
     }
 

@@ -152,6 +152,9 @@ pub struct Board {
     pub last_write_at: u64,
     /// The block hook stopped the CPU because it was idle.
     pub idle_stop: bool,
+    /// Changes of the drivers' enable line (pin 3, `DRV_ENN`): (time,
+    /// drivers energised), from power-on (off: the pull-up) on.
+    pub driver_enable_log: Vec<(u64, bool)>,
 }
 
 impl Board {
@@ -201,6 +204,7 @@ impl Board {
             idle_skip_allowed: false,
             last_write_at: 0,
             idle_stop: false,
+            driver_enable_log: Vec::new(),
         };
         b.reset_peripherals();
         b
@@ -236,6 +240,7 @@ impl Board {
         for p in self.pwm.iter_mut() {
             p.settle_time(self.now);
         }
+        self.note_driver_enable();
     }
 
     // ------------------------------------------------------------ time
@@ -507,6 +512,9 @@ impl Board {
     pub fn write(&mut self, addr: u32, size: usize, value: u32) {
         self.last_write_at = self.now;
         self.write_inner(addr, size, value);
+        if GPIO.contains(&(addr & !0x3FFF)) || (addr & !0x3FFF) == IOMUXC || (addr & !0x3FFF) == IOMUXC_GPR {
+            self.note_driver_enable();
+        }
         let next = self.next_event().max(self.now + 1);
         self.stop_at = self.stop_at.min(next);
     }

@@ -37,6 +37,20 @@ pub fn load_image() -> Result<Vec<u8>, String> {
     std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
 }
 
+/// Path of the Serial1 image with the drivers' enable output (firmware
+/// feature `driver-enable`), also built by `twin/build-image.sh`.
+pub const IMAGE_DRIVER_ENABLE: &str = "target/twin/parol6-serial1-driver-enable.elf";
+
+/// Load the driver-enable image (env `TWIN_ELF_DRIVER_ENABLE` overrides the
+/// path).
+pub fn load_driver_enable_image() -> Result<Vec<u8>, String> {
+    let path = std::env::var("TWIN_ELF_DRIVER_ENABLE").unwrap_or_else(|_| {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        root.join(IMAGE_DRIVER_ENABLE).to_string_lossy().into_owned()
+    });
+    std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+}
+
 /// Joint angles the tests and the CLI start from (rad): inside every
 /// joint's limits, off every switch, each encoder at a distinct count.
 pub const START_Q: [f64; 6] = [0.3, -0.2, 0.5, 1.0, -1.0, 2.0];

@@ -203,6 +203,11 @@ pub fn wiring() -> &'static Wiring {
     })
 }
 
+/// The drivers' enable line: Teensy pin 3 wired to every TMC5160's
+/// `DRV_ENN` (active low), pulled up at the drivers (10 kOhm to 3.3 V): the
+/// line is high (drivers off) unless a GPIO output drives it.
+pub const DRIVER_ENABLE_PIN: u8 = 3;
+
 /// IOMUXC offsets of the LPUART6 pads and daisy registers.
 pub const LPUART6_RX_SELECT: u32 = 0x550;
 
@@ -305,6 +310,25 @@ impl Board {
             Some(g.dr & (1 << bit) != 0)
         } else {
             None
+        }
+    }
+
+    /// The drivers' enable line (`DRV_ENN`): the GPIO level if pin 3 is
+    /// driven, else high (the external pull-up).
+    pub fn driver_enable_line(&self) -> bool {
+        self.gpio_out(DRIVER_ENABLE_PIN).unwrap_or(true)
+    }
+
+    /// The drivers are energised (`DRV_ENN` low).
+    pub fn drivers_energised(&self) -> bool {
+        !self.driver_enable_line()
+    }
+
+    /// Records a change of the drivers' enable line (time, energised).
+    pub(crate) fn note_driver_enable(&mut self) {
+        let on = self.drivers_energised();
+        if self.driver_enable_log.last().is_some_and(|&(_, last)| last) != on {
+            self.driver_enable_log.push((self.now, on));
         }
     }
 

@@ -67,6 +67,10 @@ compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wi
 const MAP: PinMap = hal_imxrt::pure::pins::DEFAULT_PIN_MAP;
 #[cfg(feature = "j6-pin36")]
 const MAP: PinMap = hal_imxrt::pure::pins::J6_PIN36_PIN_MAP;
+/// The drivers' enable output (pin 3, active low to `DRV_ENN`), checked
+/// against both pin maps at compile time.
+#[cfg(feature = "driver-enable")]
+const DRIVER_ENABLE: hal_imxrt::pure::pins::EnablePin = hal_imxrt::pure::pins::DRIVER_ENABLE;
 /// PIT reload for 1 kHz from the 24 MHz PERCLK that `clocks::configure` sets.
 const PIT_LDVAL: u32 = match pit_load_value(OSC_HZ, TICK_HZ) {
     Ok(v) => v,
@@ -107,6 +111,9 @@ struct Teensy {
     steps: StepOutputs,
     wdog: Watchdog,
     clock: ClockCheck,
+    /// The drivers' enable output (`DRIVER_ENABLE`), configured inactive.
+    #[cfg(feature = "driver-enable")]
+    enable: hal_imxrt::pure::pins::GpioBit,
 }
 
 impl TickBoard for Teensy {
@@ -137,6 +144,12 @@ impl TickBoard for Teensy {
     #[inline(always)]
     fn clock_fault(&mut self) -> bool {
         self.clock.poll(self.cycles.now())
+    }
+    #[cfg(feature = "driver-enable")]
+    #[inline(always)]
+    fn drivers_enable(&mut self, on: bool) {
+        let high = firmware::driver_enable::enable_level_high(on, DRIVER_ENABLE.active_high);
+        self.gpios.write(self.enable, high);
     }
     fn boot_wait_ms(&mut self) {
         let t = self.cycles.now();
@@ -262,6 +275,13 @@ fn main() -> ! {
         halt()
     }
     let gpios = Gpios::new(inst.GPIO1, inst.GPIO2, inst.GPIO3, inst.GPIO4);
+    // --- the drivers' enable output: from the pad's reset state (input,
+    // the external pull-up holds DRV_ENN high) to an output driven
+    // inactive; the tick enables it only in a state that may move.
+    #[cfg(feature = "driver-enable")]
+    let Ok(enable) = iomux::configure_enable_pin(&inst.IOMUXC, &inst.IOMUXC_GPR, &gpios, DRIVER_ENABLE) else {
+        halt()
+    };
     let Ok(steps) = StepOutputs::new(inst.PWM1, inst.PWM2, inst.PWM3, inst.PWM4, inst.XBARA1, &gpios, &MAP) else {
         halt()
     };
@@ -291,7 +311,18 @@ fn main() -> ! {
     // `main`'s frame reserved 15-16 KiB of the 16 KiB stack and the first
     // event line overflowed it: found by the register-level twin).
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
-    let board = Teensy { tick, cycles, capture, gpios, limits, steps, wdog, clock };
+    let board = Teensy {
+        tick,
+        cycles,
+        capture,
+        gpios,
+        limits,
+        steps,
+        wdog,
+        clock,
+        #[cfg(feature = "driver-enable")]
+        enable,
+    };
     let (host, boot) = init_root(board, marker, reset, &mut serial1, &inst.IOMUXC);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
@@ -507,7 +538,8 @@ fn halt() -> ! {
 /// and the default handler (twin defect 5, twin/README.md: cortex-m-rt's
 /// own HardFault and DefaultHandler are `loop {}` and leave STEP pulsing
 /// until the watchdog reset): interrupts off, every STEP pin low (masked, counter stopped, pad
-/// switched to GPIO driven low), the marker for the next boot
+/// switched to GPIO driven low), the drivers' enable output inactive (with
+/// the `driver-enable` feature), the marker for the next boot
 /// (`SelfTest(0x80)`), the LED on, then wait for the watchdog reset (the
 /// tick no longer feeds it: within 20 ms).
 fn fatal_stop() -> ! {
@@ -528,6 +560,9 @@ fn fatal_stop() -> ! {
         let io = ral::iomuxc::IOMUXC::instance();
         // 1. every STEP output low, stepping stopped
         panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
+        // 1b. the drivers' enable output inactive: torque off
+        #[cfg(feature = "driver-enable")]
+        panic_stop::force_enable_inactive([&gpio1, &gpio2, &gpio3, &gpio4], &io, DRIVER_ENABLE);
         // 2. remember it across the watchdog reset
         core::ptr::write_volatile(addr_of_mut!(PANIC_MARK).cast::<u32>(), firmware::PANIC_MARKER);
         // 3. signal
@@ -562,6 +597,8 @@ fn enter_bootloader() -> ! {
         let gpio4 = ral::gpio::GPIO4::instance();
         let io = ral::iomuxc::IOMUXC::instance();
         panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
+        #[cfg(feature = "driver-enable")]
+        panic_stop::force_enable_inactive([&gpio1, &gpio2, &gpio3, &gpio4], &io, DRIVER_ENABLE);
     }
     loop {
         // SAFETY: a breakpoint instruction; it touches no memory or

@@ -178,3 +178,25 @@ pub fn configure_pins(io: &iomuxc::IOMUXC, gpr: &iomuxc_gpr::IOMUXC_GPR, map: &P
     ral::write_reg!(ral::iomuxc, io, LPUART6_TX_SELECT_INPUT, pins::SERIAL_DAISY as u32);
     Ok(())
 }
+
+/// Configure the drivers' enable output ([`pins::EnablePin`]): its GPIO bit
+/// is first set to the inactive level and made an output, then the pad is
+/// switched to a push-pull GPIO. The pad was a GPIO input since reset (the
+/// external pull held the line inactive), so the line never sees the
+/// active level on the way.
+pub fn configure_enable_pin(
+    io: &iomuxc::IOMUXC,
+    gpr: &iomuxc_gpr::IOMUXC_GPR,
+    gpios: &super::gpio::Gpios,
+    e: pins::EnablePin,
+) -> Result<pins::GpioBit, PinMapError> {
+    let Some(tp) = pins::teensy41_pin(e.pin) else {
+        return Err(PinMapError::UnknownPin(e.pin));
+    };
+    gpios.write(tp.gpio, !e.active_high);
+    gpios.make_output(tp.gpio);
+    select_standard_gpio(gpr, tp.gpio);
+    set_pad(io, tp.pad, PAD_OUTPUT);
+    set_mux(io, tp.pad, GPIO_ALT as u32);
+    Ok(tp.gpio)
+}

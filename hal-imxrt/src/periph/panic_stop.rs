@@ -10,7 +10,7 @@
 //! this firmware never changes for STEP pins).
 
 use super::iomux::set_mux;
-use crate::pure::pins::{step_fn, teensy41_pin, PinMap, PwmOutput, GPIO_ALT};
+use crate::pure::pins::{step_fn, teensy41_pin, EnablePin, PinMap, PwmOutput, GPIO_ALT};
 use imxrt_ral as ral;
 use ral::{gpio, iomuxc, pwm};
 
@@ -42,5 +42,24 @@ pub fn force_steps_low(
             }
             set_mux(io, tp.pad, u32::from(GPIO_ALT));
         }
+    }
+}
+
+/// Drive the drivers' enable output to its inactive level (the fatal path:
+/// torque off). The bit is made an output at that level, and the pad
+/// switched to GPIO, so the line is inactive whatever state the enable
+/// driver left it in.
+pub fn force_enable_inactive(gpio: [&gpio::RegisterBlock; 4], io: &iomuxc::IOMUXC, e: EnablePin) {
+    if let Some(tp) = teensy41_pin(e.pin) {
+        let m = 1u32 << (tp.gpio.bit & 31);
+        if let Some(g) = gpio.get(usize::from(tp.gpio.port.wrapping_sub(1) & 3)) {
+            if e.active_high {
+                ral::write_reg!(ral::gpio, g, DR_CLEAR, m);
+            } else {
+                ral::write_reg!(ral::gpio, g, DR_SET, m);
+            }
+            ral::modify_reg!(ral::gpio, g, GDIR, |v| v | m);
+        }
+        set_mux(io, tp.pad, u32::from(GPIO_ALT));
     }
 }

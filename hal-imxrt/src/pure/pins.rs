@@ -325,6 +325,9 @@ pub enum PinMapError {
     EncoderChannelShared(u8),
     /// A pin used twice across STEP/DIR/encoder/limit/serial (second use).
     PinUsedTwice(u8),
+    /// The driver-enable output on a pin the map, the LED or the TMC5160
+    /// SPI link already uses.
+    EnablePinTaken(u8),
 }
 
 impl PinMapError {
@@ -339,6 +342,9 @@ impl PinMapError {
             PinMapError::NotEncoderCapable(_) => "pin map: encoder pin has no QuadTimer input",
             PinMapError::EncoderChannelShared(_) => "pin map: two encoder pins share one QuadTimer channel",
             PinMapError::PinUsedTwice(_) => "pin map: a pin is used twice (STEP/DIR/encoder/limit/serial 0,1)",
+            PinMapError::EnablePinTaken(_) => {
+                "pin map: the driver-enable pin is already used (axis map, Serial1, LED 13 or the TMC5160 link)"
+            }
         }
     }
 }
@@ -560,6 +566,73 @@ const fn pad_eq(a: Pad, b: Pad) -> bool {
 const _: () = assert!(check_tmc(&DEFAULT_PIN_MAP, &TMC_WIRING).is_ok());
 const _: () = assert!(check_tmc(&J6_PIN36_PIN_MAP, &TMC_WIRING).is_ok());
 
+/// The stepper drivers' shared enable output: one GPIO driving every
+/// TMC5160's `DRV_ENN` (the power stage is off while `DRV_ENN` is high).
+/// Optional (firmware feature `driver-enable`): a board that wires it lets
+/// the image remove torque; the default image never touches the pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EnablePin {
+    /// Teensy pin.
+    pub pin: u8,
+    /// Level that enables the drivers: `false` for `DRV_ENN` wired
+    /// directly (active low).
+    pub active_high: bool,
+}
+
+/// Check an enable pin against a map: a known pin, used by nothing else
+/// (the map's 26 pins, the LED, the TMC5160 link's SPI pins and chip
+/// selects, [`TMC_WIRING`]).
+pub const fn check_enable_pin(e: EnablePin, map: &PinMap) -> Result<(), PinMapError> {
+    if teensy41_pin(e.pin).is_none() {
+        return Err(PinMapError::UnknownPin(e.pin));
+    }
+    let all = map.all_pins();
+    let mut rest: &[u8] = &all;
+    while let Some((&p, tail)) = rest.split_first() {
+        if p == e.pin {
+            return Err(PinMapError::EnablePinTaken(e.pin));
+        }
+        rest = tail;
+    }
+    let w = TMC_WIRING;
+    let [c0, c1, c2, c3, c4, c5] = w.cs;
+    let tmc = [w.sck.pin, w.sdo.pin, w.sdi.pin, c0, c1, c2, c3, c4, c5];
+    let mut rest: &[u8] = &tmc;
+    while let Some((&p, tail)) = rest.split_first() {
+        if p == e.pin {
+            return Err(PinMapError::EnablePinTaken(e.pin));
+        }
+        rest = tail;
+    }
+    if e.pin == LED_PIN {
+        return Err(PinMapError::EnablePinTaken(e.pin));
+    }
+    Ok(())
+}
+
+impl EnablePin {
+    /// Return `self` if [`check_enable_pin`] passes against both maps of
+    /// this firmware; otherwise panic (a compile error in a `const`).
+    pub const fn validated(self) -> Self {
+        if let Err(e) = check_enable_pin(self, &DEFAULT_PIN_MAP) {
+            panic!("{}", e.message());
+        }
+        if let Err(e) = check_enable_pin(self, &J6_PIN36_PIN_MAP) {
+            panic!("{}", e.message());
+        }
+        self
+    }
+}
+
+/// The drivers' enable line: pin 3 (GPIO_EMC_05, GPIO4 bit 5), active low,
+/// wired to every TMC5160's `DRV_ENN`, with a 10 kOhm pull-up to the
+/// drivers' 3.3 V logic supply at the drivers. After any reset the pad is
+/// an input (no drive), so the pull-up holds `DRV_ENN` high: the drivers
+/// are off until the image drives the line low in a state that may move.
+/// Pin 3 is a plain output here (its FlexPWM4 sm2 B function is unused:
+/// J1 uses sm2 A on pin 2 through its own pad).
+pub const DRIVER_ENABLE: EnablePin = EnablePin { pin: 3, active_high: false }.validated();
+
 // Test code is built with overflow checks on: an overflow fails the test.
 #[cfg(test)]
 #[allow(clippy::arithmetic_side_effects)]
@@ -651,6 +724,23 @@ mod tests {
         // alternative fix with pin 29 is valid
         let m = PinMap { step: [2, 5, 6, 8, 4, 29], ..DEFAULT_PIN_MAP };
         assert_eq!(check(&m), Ok(()));
+    }
+
+    #[test]
+    fn driver_enable_pin_is_free_and_checked() {
+        assert_eq!(check_enable_pin(DRIVER_ENABLE, &DEFAULT_PIN_MAP), Ok(()));
+        assert_eq!(check_enable_pin(DRIVER_ENABLE, &J6_PIN36_PIN_MAP), Ok(()));
+        assert_eq!(teensy41_pin(DRIVER_ENABLE.pin).unwrap().gpio, GpioBit { port: 4, bit: 5 });
+        assert_eq!(DRIVER_ENABLE, EnablePin { pin: 3, active_high: false });
+        for taken in [2, 30, 10, 20, 0, 13, 26, 27, 39, 38, 17, 28] {
+            let e = EnablePin { pin: taken, active_high: false };
+            assert_eq!(check_enable_pin(e, &DEFAULT_PIN_MAP), Err(PinMapError::EnablePinTaken(taken)), "{taken}");
+        }
+        let j6 = EnablePin { pin: 36, active_high: false };
+        assert_eq!(check_enable_pin(j6, &DEFAULT_PIN_MAP), Ok(()));
+        assert_eq!(check_enable_pin(j6, &J6_PIN36_PIN_MAP), Err(PinMapError::EnablePinTaken(36)));
+        let unknown = EnablePin { pin: 99, active_high: false };
+        assert_eq!(check_enable_pin(unknown, &DEFAULT_PIN_MAP), Err(PinMapError::UnknownPin(99)));
     }
 
     #[test]
