@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SMT proofs of the kernel's generic per-axis code (see proofs/smt/README.md).
 # Installs z3 if it is missing (Debian package, as root), then, in release
-# mode: the semantics check of the symbolic scalars against f32 / I8F24 and
+# mode: the semantics check of the symbolic scalars against f32 / I8F24, the
+# product lemmas the abstracted proofs rest on (z3 and exhaustive) and
 # the broken-function tests (cargo test), then every proof with its time and
 # path count. Extra arguments go to the prover (e.g. --extended, a filter).
 set -euo pipefail
@@ -26,7 +27,7 @@ if [ "$status" != 0 ]; then
     cat "$log"
     exit "$status"
 fi
-grep -E '^(test |test result|f32:|I8F24:|trait comparisons)|[0-9]+ paths, ' "$log"
+grep -E '^(test |test result|f32:|I8F24:|trait comparisons|product lemmas)|square lemmas|[0-9]+ paths, ' "$log"
 rm -f "$log"
 echo "    ($(( $(date +%s) - T0 )) s)"
 

@@ -265,7 +265,7 @@ impl Ctx {
             }
         }
         for lemma in product_lemmas(&products) {
-            self.z3.send(&format!("(assert {lemma})"));
+            self.z3.send(&format!("(assert {})", lemma.text));
         }
         !products.is_empty()
     }
@@ -412,47 +412,60 @@ impl Ctx {
 ///   saturating_abs(x)` (`floor(x y / 2^24)` lies between `x` and `-|x|`
 ///   rounded toward it, as `x` is an integer of LSBs; `MIN * -1`
 ///   saturates to MAX = `|MIN|` saturated).
-fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<String> {
+///
+/// How each kind is established (z3 on the real product, every input
+/// enumerated, or sampled): `tests/lemmas.rs` and the README.
+pub fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<Lemma> {
+    use LemmaKind::*;
     let squares: Vec<(String, String, Sort)> =
         products.iter().filter(|p| p.1 == p.2).map(|p| (name(p.0), name(p.1), p.3)).collect();
     let abs = |v: &str| format!("(ite (= {v} {MIN}) {MAX} (ite (bvslt {v} #x00000000) (bvneg {v}) {v}))");
     let mut out = Vec::new();
+    let mut push = |kind: LemmaKind, sort: Sort, text: String| out.push(Lemma { kind, sort, text });
     for &(p, a, b, sort) in products {
         let (p, a, b) = (name(p), name(a), name(b));
         for (x, y) in [(&a, &b), (&b, &a)] {
             match sort {
                 Sort::F32 => {
-                    out.push(format!("(=> (fp.isNaN {x}) (fp.isNaN {p}))"));
-                    out.push(format!(
-                        "(=> (and (fp.leq (fp.abs {y}) (fp #b0 #x7f #b00000000000000000000000)) (not (fp.isNaN {p}))) \
-                         (fp.leq (fp.abs {p}) (fp.abs {x})))"
-                    ));
+                    push(NanFactor, sort, format!("(=> (fp.isNaN {x}) (fp.isNaN {p}))"));
+                    push(
+                        FactorAtMostOne,
+                        sort,
+                        format!(
+                            "(=> (and (fp.leq (fp.abs {y}) (fp #b0 #x7f #b00000000000000000000000)) (not (fp.isNaN {p}))) \
+                             (fp.leq (fp.abs {p}) (fp.abs {x})))"
+                        ),
+                    );
                 }
                 Sort::Bv32 => {
-                    out.push(format!(
-                        "(=> (bvsle {} {}) (bvsle {} {}))",
-                        abs(y),
-                        crate::ctx::bv32_literal(1 << 24),
-                        abs(&p),
-                        abs(x)
-                    ));
+                    push(
+                        FactorAtMostOne,
+                        sort,
+                        format!(
+                            "(=> (bvsle {} {}) (bvsle {} {}))",
+                            abs(y),
+                            crate::ctx::bv32_literal(1 << 24),
+                            abs(&p),
+                            abs(x)
+                        ),
+                    );
                 }
                 Sort::Bool => {}
             }
         }
         if sort == Sort::F32 {
             let finite = |v: &str| format!("(not (or (fp.isNaN {v}) (fp.isInfinite {v})))");
-            out.push(format!("(=> (and {} {}) (not (fp.isNaN {p})))", finite(&a), finite(&b)));
+            push(FiniteFactors, sort, format!("(=> (and {} {}) (not (fp.isNaN {p})))", finite(&a), finite(&b)));
         }
     }
     for (p, x, sort) in &squares {
         match sort {
             Sort::F32 => {
-                out.push(format!("(ite (fp.isNaN {x}) (fp.isNaN {p}) (fp.leq (_ +zero 8 24) {p}))"));
-                out.push(format!("(=> (fp.isInfinite {x}) (fp.isInfinite {p}))"));
-                out.push(format!("(=> (fp.isZero {x}) (fp.isZero {p}))"));
+                push(SquareSign, *sort, format!("(ite (fp.isNaN {x}) (fp.isNaN {p}) (fp.leq (_ +zero 8 24) {p}))"));
+                push(SquareInfinite, *sort, format!("(=> (fp.isInfinite {x}) (fp.isInfinite {p}))"));
+                push(SquareZero, *sort, format!("(=> (fp.isZero {x}) (fp.isZero {p}))"));
             }
-            Sort::Bv32 => out.push(format!("(bvsle #x00000000 {p})")),
+            Sort::Bv32 => push(SquareSign, *sort, format!("(bvsle #x00000000 {p})")),
             Sort::Bool => {}
         }
     }
@@ -461,12 +474,16 @@ fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<String> {
             match sort {
                 Sort::F32 => {
                     for (p, x, q, y) in [(p, x, q, y), (q, y, p, x)] {
-                        out.push(format!("(=> (fp.leq (fp.abs {x}) (fp.abs {y})) (fp.leq {p} {q}))"));
+                        push(
+                            SquareMonotone,
+                            *sort,
+                            format!("(=> (fp.leq (fp.abs {x}) (fp.abs {y})) (fp.leq {p} {q}))"),
+                        );
                     }
                 }
                 Sort::Bv32 => {
                     for (p, x, q, y) in [(p, x, q, y), (q, y, p, x)] {
-                        out.push(format!("(=> (bvsle {} {}) (bvsle {p} {q}))", abs(x), abs(y)));
+                        push(SquareMonotone, *sort, format!("(=> (bvsle {} {}) (bvsle {p} {q}))", abs(x), abs(y)));
                     }
                 }
                 Sort::Bool => {}
@@ -474,6 +491,52 @@ fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<String> {
         }
     }
     out
+}
+
+/// The kinds of fact [`product_lemmas`] asserts (each a schema over the
+/// nodes it names; see `tests/lemmas.rs` for how each is established).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LemmaKind {
+    /// A NaN factor gives a NaN product (`f32`).
+    NanFactor,
+    /// A factor in `[-1, 1]` gives a product no larger in magnitude than
+    /// the other factor.
+    FactorAtMostOne,
+    /// Two finite factors give a product that is not NaN (`f32`).
+    FiniteFactors,
+    /// A square is NaN iff its operand is (`f32`), else `>= 0`.
+    SquareSign,
+    /// The square of an infinity is infinite (`f32`).
+    SquareInfinite,
+    /// The square of a zero is zero (`f32`).
+    SquareZero,
+    /// `|x| <= |y|` implies `x x <= y y`.
+    SquareMonotone,
+}
+
+/// One fact asserted about abstracted products: an SMT formula over the
+/// product and factor nodes it names.
+#[derive(Clone, Debug)]
+pub struct Lemma {
+    /// Which schema it instantiates.
+    pub kind: LemmaKind,
+    /// The sort of the product.
+    pub sort: Sort,
+    /// The formula.
+    pub text: String,
+}
+
+/// Refutes the negation of `formula` over the real definitions of the
+/// nodes it names (`roots`, none abstracted): `Unsat` proves `formula`
+/// for every value of the inputs those nodes depend on. Bit-blasted, as
+/// the blind proofs' checks are.
+pub fn refute(roots: &[u32], formula: &str, timeout_ms: u32) -> Sat {
+    with(|c| {
+        c.load(roots, false, false);
+        c.z3.send(&format!("(assert (not {formula}))"));
+        let fp = !c.bit_vectors_only;
+        c.z3.check(timeout_ms, true, fp)
+    })
 }
 
 const MAX: &str = "#x7fffffff";

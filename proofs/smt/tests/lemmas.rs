@@ -1,9 +1,40 @@
-//! The facts `ctx::product_lemmas` asserts about abstracted products,
-//! checked on the concrete types (no z3): boundary values, every pair, and
-//! random pairs. Sampled, not exhaustive: the README states the argument
-//! for each (monotone rounding, integer floors).
+//! The facts `ctx::product_lemmas` asserts about abstracted products
+//! (the interpolator's braking test and the soft-stop envelope rest on
+//! them), established per kind of fact and variant:
+//!
+//! - **proved by z3** (`f32`: a NaN factor, a factor in `[-1, 1]`, two
+//!   finite factors, and the square's sign, infinity and zero): each fact
+//!   as `ctx::product_lemmas` writes it, instantiated once on fresh inputs
+//!   `x`, `y` and the real products `x y` or `x x` (the same terms the
+//!   symbolic `f32` builds, not abstracted), its negation unsatisfiable:
+//!   on unconstrained inputs the instance is the schema;
+//! - **exhaustive** (the square facts of both variants, including
+//!   "`|x| <= |y|` implies `x x <= y y`", which z3 does not decide within
+//!   minutes): every one of the 2^32 inputs, on the concrete types. The
+//!   square of `x` equals the square of `|x|` bit for bit (checked for
+//!   every `x`), and the square of a non-negative value is non-decreasing
+//!   in it (checked for every consecutive pair of the 2^31 non-negative
+//!   values, `f32` ordered by bit pattern up to `+inf`): together
+//!   monotonicity in `|x|` for every pair. What is enumerated is Rust's
+//!   `f32` multiplication and the `fixed` crate's `saturating_mul`; that
+//!   the symbolic terms compute the same is the semantics check
+//!   (`tests/semantics.rs`, sampled);
+//! - **sampled** (`I8F24`, a factor in `[-1, 1]`: two 32-bit inputs, a
+//!   64-bit multiplier z3 does not decide within minutes): boundary values,
+//!   every pair of them, and 400,000 random pairs, with the argument in
+//!   `ctx::product_lemmas`' comment.
+//!
+//! `every_lemma_kind_is_established` fails if `ctx::product_lemmas` asserts
+//! a kind of fact none of these establishes.
+//!
+//! The z3 and exhaustive tests are `#[ignore]`d (z3 is needed, and 2^32
+//! iterations want a release build): `proofs/smt/run.sh` runs them.
 
 use fixed::types::I8F24;
+use smt::ctx::{self, LemmaKind, Sort};
+use smt::sym::{Sym, SymF32, SymFx};
+use std::collections::BTreeSet;
+use std::time::Instant;
 
 fn xorshift(seed: &mut u64) -> u64 {
     *seed ^= *seed << 13;
@@ -48,8 +79,9 @@ fn f32_values() -> Vec<f32> {
     v
 }
 
+/// The `f32` facts are also enumerated here on samples (cheap, no z3).
 #[test]
-fn f32_product_facts_hold() {
+fn f32_product_facts_hold_on_samples() {
     let v = f32_values();
     let mut seed = 0x2545_f491_4f6c_dd1du64;
     let mut pairs: Vec<(f32, f32)> = v.iter().take(20).flat_map(|&x| v.iter().take(20).map(move |&y| (x, y))).collect();
@@ -75,8 +107,10 @@ fn f32_product_facts_hold() {
     }
 }
 
+/// The one sampled lemma (`I8F24`, a factor in `[-1, 1]`), and the
+/// exhaustively checked square facts again on pairs.
 #[test]
-fn i8f24_product_facts_hold() {
+fn i8f24_product_facts_hold_on_samples() {
     let mut v: Vec<i32> =
         vec![0, 1, -1, i32::MIN, i32::MAX, i32::MIN + 1, i32::MAX - 1, 1 << 24, -(1 << 24), (1 << 24) - 1];
     v.extend([-(1 << 24) + 1, 1 << 23, 46_341 << 12, -(46_341 << 12)]);
@@ -103,4 +137,161 @@ fn i8f24_product_facts_hold() {
         assert!(sx >= I8F24::ZERO);
         assert!(implies(x.saturating_abs() <= y.saturating_abs(), sx <= sy), "{x}^2 = {sx} > {y}^2 = {sy}");
     }
+}
+
+/// How each kind of fact is established, per variant (see the module
+/// documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum How {
+    Z3,
+    Exhaustive,
+    Sampled,
+}
+
+fn how(sort: Sort, kind: LemmaKind) -> How {
+    match (sort, kind) {
+        (_, LemmaKind::SquareMonotone) | (Sort::Bv32, LemmaKind::SquareSign) => How::Exhaustive,
+        (Sort::F32, LemmaKind::SquareSign | LemmaKind::SquareInfinite | LemmaKind::SquareZero) => How::Z3,
+        (Sort::F32, _) => How::Z3,
+        (Sort::Bv32, LemmaKind::FactorAtMostOne) => How::Sampled,
+        _ => panic!("{sort:?} {kind:?}: no way to establish it"),
+    }
+}
+
+/// The lemmas for the products `x y`, `x x`, `y y` of fresh inputs (every
+/// kind the function writes: per product, per square, per pair of
+/// squares), with the nodes they name.
+fn instantiated<S: Sym>(sort: Sort) -> (Vec<ctx::Lemma>, Vec<u32>) {
+    let (x, y) = (S::var("x"), S::var("y"));
+    let (p, sx, sy) = (x.times(y), x.times(x), y.times(y));
+    let products = [(p.id(), x.id(), y.id(), sort), (sx.id(), x.id(), x.id(), sort), (sy.id(), y.id(), y.id(), sort)];
+    (ctx::product_lemmas(&products), vec![p.id(), sx.id(), sy.id()])
+}
+
+#[test]
+#[ignore = "needs z3 (the lemmas are written over its terms): proofs/smt/run.sh"]
+fn every_lemma_kind_is_established() {
+    let mut seen = BTreeSet::new();
+    for sort in [Sort::F32, Sort::Bv32] {
+        let lemmas = ctx::session(|| match sort {
+            Sort::F32 => instantiated::<SymF32>(sort).0,
+            _ => instantiated::<SymFx>(sort).0,
+        });
+        assert!(!lemmas.is_empty());
+        for l in lemmas {
+            assert_eq!(l.sort, sort);
+            seen.insert((format!("{sort:?}"), format!("{:?}", l.kind), how(sort, l.kind)));
+        }
+    }
+    for (sort, kind, how) in &seen {
+        println!("{sort} {kind}: {how:?}");
+    }
+    // Every (variant, kind) the function writes: 5 for f32 (+ monotone), 3 for I8F24.
+    assert_eq!(seen.len(), 7 + 3, "{seen:?}");
+}
+
+/// Every `f32` lemma that z3 establishes, proved by z3 on the real
+/// products (the negation of each instance unsatisfiable).
+#[test]
+#[ignore = "needs z3: proofs/smt/run.sh"]
+fn f32_product_lemmas_are_proved_by_z3() {
+    let t0 = Instant::now();
+    let (proved, kinds) = ctx::session(|| {
+        let (lemmas, roots) = instantiated::<SymF32>(Sort::F32);
+        let mut kinds = BTreeSet::new();
+        let mut proved = 0;
+        // One instance per kind: on fresh inputs an instance is the
+        // schema (the others differ only by renaming or by `x == y`).
+        let mut done = BTreeSet::new();
+        for l in lemmas.iter().filter(|l| how(l.sort, l.kind) == How::Z3 && done.insert(format!("{:?}", l.kind))) {
+            let t = Instant::now();
+            let r = ctx::refute(&roots, &l.text, smt::z3::property_timeout_ms());
+            assert_eq!(r, smt::z3::Sat::Unsat, "{:?} not proved: {}", l.kind, l.text);
+            println!("lemma {:?} (f32): proved in {:.1} s", l.kind, t.elapsed().as_secs_f64());
+            kinds.insert(format!("{:?}", l.kind));
+            proved += 1;
+        }
+        (proved, kinds)
+    });
+    assert_eq!((proved, kinds.len()), (6, 6), "{kinds:?}");
+    println!("product lemmas: {proved} f32 kinds proved by z3 in {:.1} s", t0.elapsed().as_secs_f64());
+}
+
+/// Runs `check(lo, hi)` on the halves of `0..=last` on two threads.
+fn split(last: u32, check: impl Fn(u32, u32) + Sync) {
+    let mid = last / 2;
+    std::thread::scope(|s| {
+        s.spawn(|| check(0, mid));
+        check(mid + 1, last);
+    });
+}
+
+/// `f32`, every input: the square of `x` is the square of `|x|` bit for
+/// bit, NaN iff `x` is, else `>= +0`, infinite for an infinite `x`, zero
+/// for a zero; and the square is non-decreasing over the non-negative
+/// values `+0 ..= +inf` in bit order (their numeric order). Hence every
+/// square fact of `ctx::product_lemmas`, monotonicity included.
+#[test]
+#[ignore = "2^32 inputs: proofs/smt/run.sh runs it in release"]
+fn f32_square_lemmas_hold_on_every_input() {
+    let t0 = Instant::now();
+    split(u32::MAX, |lo, hi| {
+        for b in lo..=hi {
+            let x = f32::from_bits(b);
+            let s = x * x;
+            if x.is_nan() {
+                assert!(s.is_nan(), "{b:#x}");
+                continue;
+            }
+            assert!(!s.is_nan() && s >= 0.0, "{b:#x}");
+            assert_eq!(s.to_bits(), (x.abs() * x.abs()).to_bits(), "{b:#x}");
+            assert!(!x.is_infinite() || s.is_infinite(), "{b:#x}");
+            assert!(x != 0.0 || s == 0.0, "{b:#x}");
+        }
+    });
+    let top = f32::INFINITY.to_bits();
+    split(top - 1, |lo, hi| {
+        for b in lo..=hi {
+            let (x, y) = (f32::from_bits(b), f32::from_bits(b + 1));
+            assert!(x < y, "{b:#x}: bit order is numeric order");
+            assert!(x * x <= y * y, "{b:#x}: {x}^2 > {y}^2");
+        }
+    });
+    println!(
+        "f32 square lemmas: every one of 2^32 inputs, {} monotone steps, exhaustive in {:.1} s",
+        top,
+        t0.elapsed().as_secs_f64()
+    );
+}
+
+/// `I8F24`, every input: the square of `x` is the square of
+/// `saturating_abs(x)` and `>= 0`; the square is non-decreasing over
+/// `0 ..= MAX`. Hence both square facts of `ctx::product_lemmas`.
+#[test]
+#[ignore = "2^32 inputs: proofs/smt/run.sh runs it in release"]
+fn i8f24_square_lemmas_hold_on_every_input() {
+    let t0 = Instant::now();
+    let sq = |b: i32| {
+        let x = I8F24::from_bits(b);
+        x.saturating_mul(x)
+    };
+    split(u32::MAX, |lo, hi| {
+        for u in lo..=hi {
+            let b = u as i32;
+            let s = sq(b);
+            assert!(s >= I8F24::ZERO, "{b:#x}");
+            assert_eq!(s, sq(I8F24::from_bits(b).saturating_abs().to_bits()), "{b:#x}");
+        }
+    });
+    split(i32::MAX as u32 - 1, |lo, hi| {
+        for u in lo..=hi {
+            let b = u as i32;
+            assert!(sq(b) <= sq(b + 1), "{b:#x}");
+        }
+    });
+    println!(
+        "I8F24 square lemmas: every one of 2^32 inputs, {} monotone steps, exhaustive in {:.1} s",
+        i32::MAX,
+        t0.elapsed().as_secs_f64()
+    );
 }
