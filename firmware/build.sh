@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Build the PAROL6 Teensy 4.1 image and check it.
 #
-#   firmware/build.sh            # release image + sizes + tick stack + panic check + reproducibility
+#   firmware/build.sh            # release image + sizes + tick stack + panic check + main-stack bound + reproducibility
 #   FEATURES=serial1 firmware/build.sh   # protocol on Serial1 (pins 0/1) instead of USB CDC
 #   SKIP_REPRO=1 firmware/build.sh       # skip the determinism check (re-links, second directory)
 #   REPRO_RELINKS=10 firmware/build.sh   # re-link the image 10 times instead of 5
@@ -159,6 +159,26 @@ fi
 PANIC_RC=0
 python3 "$ROOT/firmware/tools/tick_analysis.py" "$OBJDUMP" "$OUT/parol6.elf" PIT $STACK_ELF || PANIC_RC=$?
 
+echo "== main stack and its guard (firmware/tools/stack_analysis.py)"
+# The stack guard (hal_imxrt::pure::mpu) assumes imxrt-rt's layout: the main
+# stack is the first 32 KiB of DTCM (__estack = 0x20000000, _stack_start =
+# 0x20008000). Checked on the image itself; then the worst-case bound of
+# the whole stack (boot, main loop, handlers) against what lies above the
+# guard, on the nightly stack-size build.
+STACK_RC=0
+"$NM" "$OUT/parol6.elf" | python3 -c '
+import sys
+sym = {p[2]: int(p[0], 16) for p in (l.split() for l in sys.stdin) if len(p) == 3}
+lo, hi = sym.get("__estack"), sym.get("_stack_start")
+ok = (lo, hi) == (0x20000000, 0x20008000)
+print(f"main stack {lo:#x}..{hi:#x}: " + ("as the stack guard assumes" if ok else "FAIL: not the layout the stack guard assumes (0x20000000..0x20008000)"))
+sys.exit(0 if ok else 1)' || STACK_RC=1
+if [ -n "$STACK_ELF" ]; then
+  python3 "$ROOT/firmware/tools/stack_analysis.py" "$OBJDUMP" "$STACK_ELF" || STACK_RC=1
+else
+  echo "(no stack-size build: main-stack bound not computed)"
+fi
+
 echo "== no path of this machine in the ELF"
 # (grep -a rather than strings(1): binutils is not needed for the build)
 RUSTUP_HOME_DIR="${RUSTUP_HOME:-$HOME/.rustup}"
@@ -236,4 +256,5 @@ if [ -z "${SKIP_REPRO:-}" ]; then
 fi
 
 if [ "$PANIC_RC" != 0 ]; then echo "FAIL: panic path reachable from the tick handler (see above)"; fi
-[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ] && [ "$PATH_RC" = 0 ]
+if [ "$STACK_RC" != 0 ]; then echo "FAIL: main stack layout or bound (see above)"; fi
+[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ] && [ "$PATH_RC" = 0 ] && [ "$STACK_RC" = 0 ]

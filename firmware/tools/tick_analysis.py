@@ -209,4 +209,5 @@ def main():
     print("panic-path and division check:", "PASS" if ok else "FAIL")
     sys.exit(0 if ok else 1)
 
-main()
+if __name__ == "__main__":
+    main()

@@ -155,6 +155,10 @@ pub struct Board {
     /// Changes of the drivers' enable line (pin 3, `DRV_ENN`): (time,
     /// drivers energised), from power-on (off: the pull-up) on.
     pub driver_enable_log: Vec<(u64, bool)>,
+    /// The Cortex-M7 MPU's registers (the stack guard).
+    pub mpu: crate::mpu::Mpu,
+    /// An access the MPU refused, for the harness to take as a fault.
+    pub mpu_fault: Option<crate::mpu::MpuFault>,
 }
 
 impl Board {
@@ -205,6 +209,8 @@ impl Board {
             last_write_at: 0,
             idle_stop: false,
             driver_enable_log: Vec::new(),
+            mpu: Default::default(),
+            mpu_fault: None,
         };
         b.reset_peripherals();
         b
@@ -232,6 +238,9 @@ impl Board {
         self.nvic_ipr = [0; 240];
         self.dwt_ctrl = 0x4000_0000;
         self.demcr = 0;
+        // the MPU is off after a reset; the harness lifts its protection
+        self.mpu = crate::mpu::Mpu { dirty: true, ..Default::default() };
+        self.mpu_fault = None;
         for t in self.tmr.iter_mut() {
             for c in t.ch.iter_mut() {
                 c.t = self.now;

@@ -22,6 +22,9 @@ pub struct Image {
     pub segments: Vec<Segment>,
     /// Function and object symbols: name -> address (thumb bit cleared).
     pub symbols: HashMap<String, u32>,
+    /// Symbols without a type (the linker script's, e.g. imxrt-rt's
+    /// `__estack` and `_stack_start`): name -> value.
+    pub linker_symbols: HashMap<String, u32>,
     /// defmt's level markers (`__DEFMT_MARKER_*`): name -> value (an offset
     /// in `.defmt`, one byte per interned log string).
     pub defmt_markers: HashMap<String, u32>,
@@ -60,6 +63,7 @@ impl Image {
             }
         }
         let mut symbols = HashMap::new();
+        let mut linker_symbols = HashMap::new();
         let mut defmt_markers = HashMap::new();
         for i in 0..shnum {
             let s = shoff + i * shentsize;
@@ -83,6 +87,10 @@ impl Image {
                     defmt_markers.insert(name, value);
                     continue;
                 }
+                if info & 0xF == 0 && !name.is_empty() {
+                    linker_symbols.entry(name).or_insert(value);
+                    continue;
+                }
                 if !matches!(info & 0xF, 1 | 2) {
                     continue; // functions and objects only
                 }
@@ -91,7 +99,7 @@ impl Image {
                 }
             }
         }
-        Ok(Image { segments, symbols, defmt_markers })
+        Ok(Image { segments, symbols, linker_symbols, defmt_markers })
     }
 
     /// defmt log statements compiled in, per level (`ERROR`, `WARN`,

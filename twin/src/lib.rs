@@ -7,6 +7,7 @@ pub mod elf;
 pub mod gpt;
 pub mod lpuart;
 pub mod machine;
+pub mod mpu;
 pub mod pads;
 pub mod pit;
 pub mod plant;

@@ -10,11 +10,12 @@ use std::collections::HashMap;
 
 use rustc_hash::FxHashMap;
 
-use unicorn_engine::{Arch, ArmCpuModel, Context, Mode, Prot, RegisterARM, Unicorn};
+use unicorn_engine::{Arch, ArmCpuModel, Context, HookType, MemType, Mode, Prot, RegisterARM, Unicorn};
 
 use crate::board::{Board, Reset};
 use crate::elf::Image;
 use crate::lpuart::IRQ_LPUART6;
+use crate::mpu::MpuFault;
 use crate::pit::IRQ_PIT;
 use crate::plant::Plant;
 
@@ -81,6 +82,8 @@ pub struct Stats {
     pub sleep_cycles: u64,
     /// LPUART6 handler invocations.
     pub uart_calls: u64,
+    /// Accesses the MPU refused (each taken as a HardFault).
+    pub mpu_faults: Vec<MpuFault>,
 }
 
 /// The twin: CPU + board.
@@ -96,6 +99,11 @@ pub struct Twin {
     /// The interrupt whose handler runs (meaningful with `in_handler`).
     in_irq: u32,
     next_pc: Option<u64>,
+    /// The ranges protected in Unicorn for the MPU's no-access regions.
+    mpu_protected: Vec<(u64, u64)>,
+    /// The HardFault handler runs with `HFNMIENA = 0`: the MPU is off
+    /// until the next reset (the image's handler never returns).
+    mpu_suspended: bool,
     /// Harness statistics.
     pub stats: Stats,
 }
@@ -238,6 +246,21 @@ impl Twin {
             true
         })
         .map_err(e)?;
+        // The MPU's no-access regions are protected Unicorn pages: an access
+        // there lands here and stops the CPU (nothing runs on).
+        uc.add_mem_hook(
+            HookType::MEM_PROT,
+            1,
+            0,
+            |uc: &mut Unicorn<'_, Board>, ty: MemType, addr: u64, _size: usize, _v: i64| {
+                let sp = uc.reg_read(RegisterARM::SP).unwrap_or(0) as u32;
+                let b = uc.get_data_mut();
+                let write = matches!(ty, MemType::WRITE_PROT);
+                b.mpu_fault = Some(MpuFault { addr: addr as u32, write, at: b.now, sp });
+                false
+            },
+        )
+        .map_err(e)?;
         let ivt_entry = read_u32(&uc, 0x6000_1004)?;
         let boot_sp = read_u32(&uc, u64::from(ivt_entry))?;
         let boot_pc = read_u32(&uc, u64::from(ivt_entry) + 4)?;
@@ -256,6 +279,8 @@ impl Twin {
             in_handler: None,
             in_irq: IRQ_PIT,
             next_pc: None,
+            mpu_protected: Vec::new(),
+            mpu_suspended: false,
             stats: Stats::default(),
         };
         t.cpu_reset()?;
@@ -305,6 +330,10 @@ impl Twin {
                 b.reset_peripherals();
                 b.srsr = 1 << 7; // WDOG3_RST_B
                 self.cpu_reset().map_err(|w| self.fault(w))?;
+                self.mpu_suspended = false;
+            }
+            if self.board().mpu.dirty {
+                self.apply_mpu().map_err(|w| self.fault(w))?;
             }
             if self.board().sleeping && self.sleep(t_end) {
                 continue;
@@ -361,7 +390,13 @@ impl Twin {
                 }
             }
             if let Err(err) = r {
-                return Err(self.fault(format!("CPU stopped: {err:?}")));
+                match self.board_mut().mpu_fault.take() {
+                    Some(f) => {
+                        self.mem_manage(f)?;
+                        continue;
+                    }
+                    None => return Err(self.fault(format!("CPU stopped: {err:?}"))),
+                }
             }
             if std::mem::take(&mut self.board_mut().idle_stop) {
                 // The main loop spins without writing a peripheral: what it
@@ -480,6 +515,52 @@ impl Twin {
         let mut v: Vec<(String, u64)> = by.into_iter().collect();
         v.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
         v
+    }
+
+    /// Applies the MPU's registers: the no-access regions of RAM become
+    /// protected pages (none while the MPU is off or suspended for the
+    /// HardFault handler). A region that is not whole Unicorn pages of
+    /// RAM cannot be modelled and stops the run.
+    fn apply_mpu(&mut self) -> Result<(), String> {
+        self.board_mut().mpu.dirty = false;
+        let want = if self.mpu_suspended { Vec::new() } else { self.board().mpu.no_access() };
+        if want == self.mpu_protected {
+            return Ok(());
+        }
+        let e = |x: unicorn_engine::uc_error| format!("MPU region: unicorn: {x:?}");
+        for &(s, end) in &self.mpu_protected {
+            self.uc.mem_protect(s, end - s, Prot::ALL).map_err(e)?;
+        }
+        self.mpu_protected.clear();
+        for &(s, end) in &want {
+            let in_ram = [(ITCM, 512 * 1024), (DTCM, 512 * 1024), (OCRAM, 1024 * 1024)]
+                .iter()
+                .any(|&(base, len)| s >= base && end <= base + len);
+            if !in_ram {
+                return Err(format!("MPU no-access region {s:#x}..{end:#x} outside the RAM the twin models"));
+            }
+            self.uc.mem_protect(s, end - s, Prot::NONE).map_err(e)?;
+            self.mpu_protected.push((s, end));
+        }
+        Ok(())
+    }
+
+    /// An access the MPU refused: MemManage, which the image leaves
+    /// disabled, so it escalates to HardFault at once (ARMv7-M B1.5.8);
+    /// the faulting access does not happen. With `HFNMIENA = 0` the MPU is
+    /// off while the HardFault handler runs, so its stacking and its own
+    /// calls may use the guard. A fault inside a handler (the tick) leaves
+    /// that handler for good: the image's HardFault handler never returns.
+    fn mem_manage(&mut self, f: MpuFault) -> Result<(), Fault> {
+        self.stats.mpu_faults.push(f);
+        if !self.board().mpu.on_in_hardfault() {
+            self.mpu_suspended = true;
+            self.apply_mpu().map_err(|w| self.fault(w))?;
+        }
+        self.in_handler = None;
+        self.board_mut().in_pit = false;
+        self.take_exception(3)?;
+        Ok(())
     }
 
     /// Take exception `vector` (vector-table index: 3 = HardFault, 16 + n
@@ -613,6 +694,7 @@ fn ppb_read(b: &mut Board, a: u32, size: usize) -> u32 {
         0xE000_ED00 => 0x411F_C271, // CPUID: Cortex-M7 r1p1
         0xE000_ED08 => b.vtor,
         0xE000_EDFC => b.demcr,
+        x @ 0xE000_ED90..=0xE000_EDB8 => b.mpu.read(x).unwrap_or(0),
         x @ 0xE000_E100..=0xE000_E11C => b.nvic_en[((x - 0xE000_E100) / 4) as usize],
         x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize],
         x @ 0xE000_E400..=0xE000_E4EC => {
@@ -665,6 +747,12 @@ fn ppb_write(b: &mut Board, a: u32, size: usize, v: u32) {
             }
         }
         x @ 0xE000_E180..=0xE000_E19C => b.nvic_en[((x - 0xE000_E180) / 4) as usize] &= !v,
+        x @ 0xE000_ED90..=0xE000_EDB8 => {
+            // the MPU: applied by the harness before the next block runs
+            if b.mpu.write(x, v) {
+                b.stop_at = b.now + 1;
+            }
+        }
         x => {
             b.regs.insert(x, v);
         }

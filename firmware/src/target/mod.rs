@@ -11,8 +11,8 @@
 //! `unsafe` appears only here, each with a `// SAFETY:` comment: taking the
 //! peripheral instances once, the tick context shared between `main` (init,
 //! before the interrupt is unmasked) and the PIT handler (afterwards), the
-//! queue link, the panic marker and the panic handler's stolen registers
-//! (and, in `ram_test`, the boot RAM test's word accesses to the statics it
+//! queue link, the panic marker, the panic handler's stolen registers and
+//! the MPU's stack-guard registers (and, in `ram_test`, the boot RAM test's word accesses to the statics it
 //! tests before they are built).
 
 mod logger;
@@ -268,6 +268,9 @@ fn main() -> ! {
     let wdog = Watchdog::start(inst.RTWDOG, WDOG_TOVAL, WDOG_WIN);
 
     let Some(mut cp) = cortex_m::Peripherals::take() else { halt() };
+    // --- the stack guard: from here on a stack that grows into the guard
+    // below it faults at once into the STEP-low fatal stop.
+    stack_guard(&mut cp.MPU);
     let cycles = CycleCounter::enable(&mut cp.DCB, &mut cp.DWT);
 
     // --- pins and drivers (STEP outputs masked low, DIR low)
@@ -381,6 +384,30 @@ fn main() -> ! {
             sleep_unless_ticked(seen);
         }
     }
+}
+
+/// Programs the MPU's stack guard (`hal_imxrt::pure::mpu`: 1 KiB of no
+/// access 1 KiB above the main stack's bottom, the default map elsewhere,
+/// the MPU off in the HardFault handler) and turns the MPU on. The main
+/// stack is the only stack: thread code and every handler (the tick too)
+/// run on the MSP, so the one guard covers them all.
+fn stack_guard(mpu: &mut cortex_m::peripheral::MPU) {
+    use hal_imxrt::pure::mpu::{GUARD, GUARD_CTRL};
+    // SAFETY: the MPU is off while the region is written; the one region
+    // covers only the guard (no access), which nothing may use: it lies
+    // below the deepest stack the build's stack analysis bounds
+    // (firmware/tools/stack_analysis.py), and no static or code is there
+    // (the stack is imxrt-rt's first DTCM section, checked by
+    // firmware/build.sh). `PRIVDEFENA` keeps the default memory map and its
+    // attributes for every other address, so no other access changes.
+    unsafe {
+        mpu.ctrl.write(0);
+        mpu.rbar.write(GUARD.rbar);
+        mpu.rasr.write(GUARD.rasr);
+        mpu.ctrl.write(GUARD_CTRL);
+    }
+    cortex_m::asm::dsb();
+    cortex_m::asm::isb();
 }
 
 fn cycles_now() -> u32 {

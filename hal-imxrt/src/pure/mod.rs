@@ -10,6 +10,7 @@ pub mod debounce;
 pub mod encoder;
 pub mod frame;
 pub mod march;
+pub mod mpu;
 pub mod mt6816;
 pub mod pins;
 pub mod reset_cause;
