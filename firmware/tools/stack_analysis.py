@@ -21,7 +21,13 @@ direct-call graph (tick_analysis.py's disassembly), this prints:
 4. every frame larger than the guard: such a frame could step over the guard
    (its accesses landing below it, unseen). FAILS unless the function is
    called only from the top of the stack (`main` or `__cortex_m_rt_main`,
-   whose depth the bound of 3 covers).
+   whose depth the bound of 3 covers);
+5. the fatal path's stack (HardFault and DefaultHandler, each plus the
+   exception frame): an overflow faults with the stack pointer at the
+   guard's bottom or above it (every frame below the top is smaller than
+   the guard, 4), and the handler runs with the MPU off, so it has the
+   guard's kilobyte and the one below; FAILS if it needs more than the
+   kilobyte below (FATAL_RESERVE), the room it has in the worst case.
 
 Indirect calls (the USB stack's class dispatch) are listed, not followed:
 the bound covers direct calls; what an indirect callee adds is caught by the
@@ -85,6 +91,15 @@ def main():
         print(f"frame over the guard: {f} {s} bytes, called from {sorted(cs) or 'nothing direct'}:"
               f" {'top of the stack only' if top_only else 'FAIL: could step over the guard'}")
         ok &= bool(top_only)
+    for h in ("HardFault", "DefaultHandler"):
+        r = resolve(objdump, elf, h, addr_of)
+        if r not in funcs:
+            print(f"fatal path {h}: not found"); ok = False; continue
+        v, p, _ = worst(funcs, addr_of, sizes, r)
+        fits = v + FRAME <= FATAL_RESERVE
+        print(f"fatal path {h}: {v} + {FRAME} exception frame = {v + FRAME} bytes of the {FATAL_RESERVE} below"
+              f" the guard ({' -> '.join(p)}){'' if fits else ': FAIL'}")
+        ok &= fits
     print("main-stack check:", "PASS" if ok else "FAIL")
     sys.exit(0 if ok else 1)
 
