@@ -8,7 +8,10 @@
 //! * every harness named in the Kani matrix is a `#[kani::proof]` fn in
 //!   `proofs/src`, and every such fn is in exactly one shard;
 //! * each harness runs under a wall-clock limit and each job has a timeout;
-//! * the proof inventory (`cargo kani list`) is archived as an artifact.
+//! * the proof inventory (`cargo kani list`) is archived as an artifact;
+//! * the Kani jobs build under Kani's own (older) rustc: `ci/kani.sh`
+//!   matches the workspace's rust-version to it (KANI_MATCH_RUST_VERSION)
+//!   and passes `-Z unstable-options --fail-uncoverable`.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -231,4 +234,38 @@ fn fuzz_long_runs_every_fuzz_target() {
         .find(|r| r.contains("protocol/fuzz/run.sh"))
         .expect("a step runs protocol/fuzz/run.sh");
     assert!(run.contains("FUZZ_TARGETS=${{ matrix.target }}"), "each job fuzzes its own target: {run}");
+}
+
+/// Kani builds with its own nightly, whose rustc is older than the
+/// workspace's `rust-version`, and `cargo kani` has no
+/// `--ignore-rust-version`: every Kani step runs `ci/kani.sh` with
+/// `KANI_MATCH_RUST_VERSION=1`, and `ci/kani.sh` matches the rust-version
+/// to Kani's rustc before every build (`run` and `inventory`) and passes
+/// `--fail-uncoverable` behind `-Z unstable-options`.
+#[test]
+fn kani_jobs_build_under_kani_s_toolchain_and_fail_uncoverable_covers() {
+    let w = workflow();
+    assert_eq!(str_of(&w["env"]["KANI_MATCH_RUST_VERSION"], "env.KANI_MATCH_RUST_VERSION"), "1");
+    for name in ["kani", "kani-inventory"] {
+        let j = job(&w, name);
+        let ks = kani_steps(&w, j);
+        assert!(!ks.is_empty(), "job {name}: no Kani step");
+        for s in ks {
+            let v = str_of(&s["env"]["KANI_MATCH_RUST_VERSION"], "step env KANI_MATCH_RUST_VERSION");
+            assert!(v == "1" || v.contains("env.KANI_MATCH_RUST_VERSION"), "job {name}: KANI_MATCH_RUST_VERSION is {v}");
+        }
+    }
+    let manifest = std::fs::read_to_string(root().join("Cargo.toml")).expect("Cargo.toml");
+    assert!(manifest.lines().any(|l| l.starts_with("rust-version = ")), "the workspace states a rust-version");
+    let script = std::fs::read_to_string(root().join("ci/kani.sh")).expect("ci/kani.sh");
+    assert!(script.contains("match_rust_version() {"), "ci/kani.sh defines match_rust_version");
+    // Called in `run` and in `inventory`, before cargo kani builds.
+    for (arm, build) in [("run)", "cargo kani -p proofs"), ("inventory)", "cargo kani list")] {
+        let at = script.find(&format!("\n{arm}\n")).unwrap_or_else(|| panic!("ci/kani.sh: no {arm} arm"));
+        let body = &script[at..];
+        let m = body.find("match_rust_version").unwrap_or_else(|| panic!("{arm} does not match the rust-version"));
+        let b = body.find(build).unwrap_or_else(|| panic!("{arm} does not run {build}"));
+        assert!(m < b, "{arm}: the rust-version is matched after the build starts");
+    }
+    assert!(script.contains("\"-Z unstable-options --fail-uncoverable\""), "ci/kani.sh passes --fail-uncoverable");
 }
