@@ -252,7 +252,10 @@ fn kani_jobs_build_under_kani_s_toolchain_and_fail_uncoverable_covers() {
         assert!(!ks.is_empty(), "job {name}: no Kani step");
         for s in ks {
             let v = str_of(&s["env"]["KANI_MATCH_RUST_VERSION"], "step env KANI_MATCH_RUST_VERSION");
-            assert!(v == "1" || v.contains("env.KANI_MATCH_RUST_VERSION"), "job {name}: KANI_MATCH_RUST_VERSION is {v}");
+            assert!(
+                v == "1" || v.contains("env.KANI_MATCH_RUST_VERSION"),
+                "job {name}: KANI_MATCH_RUST_VERSION is {v}"
+            );
         }
     }
     let manifest = std::fs::read_to_string(root().join("Cargo.toml")).expect("Cargo.toml");
