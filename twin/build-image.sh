@@ -21,3 +21,9 @@ FEATURES="serial1 driver-enable" SKIP_REPRO=1 SKIP_STACK=1 firmware/build.sh >ta
   || { tail -n 20 target/twin/driver-enable-build.log; echo "(firmware/build.sh reported a check failure for the driver-enable image)"; }
 cp "$ELF" target/twin/parol6-serial1-driver-enable.elf
 echo "twin image: target/twin/parol6-serial1-driver-enable.elf"
+# The same image with the TMC5160 link (firmware feature `tmc5160-spi`) for
+# twin/tests/driver_spi.rs; likewise without a second stack build.
+FEATURES="serial1 tmc5160-spi" SKIP_REPRO=1 SKIP_STACK=1 firmware/build.sh >target/twin/tmc5160-build.log 2>&1 \
+  || { tail -n 20 target/twin/tmc5160-build.log; echo "(firmware/build.sh reported a check failure for the tmc5160-spi image)"; }
+cp "$ELF" target/twin/parol6-serial1-tmc5160.elf
+echo "twin image: target/twin/parol6-serial1-tmc5160.elf"

@@ -8,6 +8,7 @@
 use hal_imxrt::pure::frame::Snapshot;
 use hal_imxrt::pure::step::StepCommand;
 use kernel::config::AXES;
+use kernel::DriverCause;
 
 /// What the 1 kHz tick touches. Every method is non-blocking and bounded.
 pub trait TickBoard {
@@ -44,6 +45,15 @@ pub trait TickBoard {
     /// A board without the output (the default image, the simulator) does
     /// nothing.
     fn drivers_enable(&mut self, _on: bool) {}
+    /// The stepper drivers' own diagnostics (the TMC5160 SPI link,
+    /// `hal_imxrt::pure::tmc5160`): the first axis whose driver currently
+    /// reports a problem, and the problem. Called once per tick, before the
+    /// kernel; the image reads one driver per call. A board without the
+    /// link (the simulator, an image built without `tmc5160-spi`) reports
+    /// nothing.
+    fn driver_fault(&mut self) -> Option<(u8, DriverCause)> {
+        None
+    }
 }
 
 /// A byte link to the host (USB CDC, Serial1, a pseudo-terminal).

@@ -147,6 +147,24 @@ pub mod code {
 /// formatter out of the boot path, 6.7 KB of flash when it was called).
 pub const RAM_FAULT_LINE: &str = "FAULT HARDWARE SELF_TEST code=131\n";
 
+/// The kernel's name for what a TMC5160's check found
+/// (`hal_imxrt::pure::tmc5160`), one to one.
+pub const fn driver_cause(f: hal_imxrt::pure::tmc5160::Finding) -> kernel::DriverCause {
+    use hal_imxrt::pure::tmc5160::Finding;
+    use kernel::DriverCause;
+    match f {
+        Finding::Missing => DriverCause::Missing,
+        Finding::WrongVersion => DriverCause::WrongVersion,
+        Finding::Reset => DriverCause::Reset,
+        Finding::DriverError => DriverCause::DriverError,
+        Finding::ChargePump => DriverCause::ChargePump,
+        Finding::Overtemperature => DriverCause::Overtemperature,
+        Finding::ShortToGround => DriverCause::ShortToGround,
+        Finding::ShortToSupply => DriverCause::ShortToSupply,
+        Finding::OpenLoad => DriverCause::OpenLoad,
+    }
+}
+
 /// Value of the panic marker word kept in non-initialised RAM.
 pub const PANIC_MARKER: u32 = 0x5041_4E43; // "PANC"
 
@@ -168,13 +186,15 @@ pub fn boot_fault(panic_marker: u32, watchdog_reset: bool, encoder_fail_mask: u8
 }
 
 /// The boot fault as one byte for the boot log line (no `core::fmt` in the
-/// image): 0 none, the [`code`] of a self-test fault, `0xF0 | axis` a driver
-/// fault, `0xFF` a tick overrun (the last two never occur at boot).
+/// image): 0 none, the [`code`] of a self-test fault, `0xE0 | axis` a
+/// driver's own diagnostic (the TMC5160 check), `0xF0 | axis` a refused step
+/// rate and `0xFF` a tick overrun (the last two never occur at boot).
 pub const fn boot_fault_log_code(fault: Option<HardwareFault>) -> u8 {
     match fault {
         None => 0,
         Some(HardwareFault::SelfTest(c)) => c,
         Some(HardwareFault::Driver { axis }) => 0xF0 | (axis & 0x0F),
+        Some(HardwareFault::DriverDiagnostic { axis, .. }) => 0xE0 | (axis & 0x0F),
         Some(HardwareFault::TickOverrun) => 0xFF,
     }
 }

@@ -303,6 +303,11 @@ impl Controller<'_> {
         if board.clock_fault() && self.pending_fault.is_none() {
             self.pending_fault = Some(HardwareFault::SelfTest(crate::code::CLOCK));
         }
+        if let Some((axis, cause)) = board.driver_fault() {
+            if self.pending_fault.is_none() {
+                self.pending_fault = Some(HardwareFault::DriverDiagnostic { axis, cause });
+            }
+        }
         self.rec.sense = crate::sense(&self.rec.readings, &limits, self.pending_fault.take(), self.link.link_lost());
         self.flow.mark(Step::Estimate);
     }
@@ -620,12 +625,15 @@ mod tests {
     use hal_imxrt::pure::frame::Snapshot;
     use kernel::config::PAROL6_VALIDATED;
 
-    /// A board that records the watchdog refreshes and nothing else.
+    /// A board that records the watchdog refreshes and the enable output,
+    /// and reports a driver diagnostic when given one.
     #[derive(Default)]
     struct Feeds {
         feeds: u32,
         /// Every `drivers_enable` call, in order.
         enables: std::vec::Vec<bool>,
+        driver: Option<(u8, kernel::DriverCause)>,
+        driver_polls: u32,
     }
 
     impl TickBoard for Feeds {
@@ -649,6 +657,28 @@ mod tests {
         fn drivers_enable(&mut self, on: bool) {
             self.enables.push(on);
         }
+        fn driver_fault(&mut self) -> Option<(u8, kernel::DriverCause)> {
+            self.driver_polls += 1;
+            self.driver
+        }
+    }
+
+    #[test]
+    fn a_driver_diagnostic_faults_the_kernel_in_the_tick_it_is_reported() {
+        let mut link = RootLink::new();
+        let (mut controller, _host) = new(&PAROL6_VALIDATED, &mut link, HostConfig::USB);
+        let mut board = Feeds::default();
+        for _ in 0..3 {
+            let _ = controller.tick(&mut board);
+        }
+        assert_eq!(board.driver_polls, 3, "the link is polled once per tick");
+        assert_ne!(controller.kernel().state(), State::Fault);
+        let cause = kernel::DriverCause::OpenLoad;
+        board.driver = Some((4, cause));
+        let rec = controller.tick(&mut board);
+        assert_eq!(controller.kernel().state(), State::Fault);
+        let want = kernel::FaultReason::Hardware(HardwareFault::DriverDiagnostic { axis: 4, cause });
+        assert!(rec.events.iter().any(|e| *e == Event::Fault(want)), "{:?}", rec.events);
     }
 
     #[test]

@@ -27,6 +27,40 @@ pub enum HardwareFault {
     },
     /// Start-up self-test failed (code defined by the firmware).
     SelfTest(u8),
+    /// A stepper driver's own diagnostics, read over its SPI link, name a
+    /// problem (axis index 0..=5). Distinct from [`HardwareFault::Driver`],
+    /// which is a step rate the step generator refused.
+    DriverDiagnostic {
+        /// Axis index.
+        axis: u8,
+        /// What the driver reported.
+        cause: DriverCause,
+    },
+}
+
+/// What a stepper driver's diagnostics reported
+/// ([`HardwareFault::DriverDiagnostic`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DriverCause {
+    /// The driver does not answer on its link.
+    Missing,
+    /// The driver answers with another chip's version.
+    WrongVersion,
+    /// The driver reset (lost its supply) while running.
+    Reset,
+    /// The driver switched its bridges off (overtemperature or a short)
+    /// and its status does not say which.
+    DriverError,
+    /// Charge pump undervoltage: the driver is disabled.
+    ChargePump,
+    /// Overtemperature shutdown.
+    Overtemperature,
+    /// A motor phase shorted to ground.
+    ShortToGround,
+    /// A motor phase shorted to the supply.
+    ShortToSupply,
+    /// A motor phase open (a coil not connected).
+    OpenLoad,
 }
 
 /// Everything sensed in one tick.

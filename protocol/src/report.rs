@@ -16,7 +16,7 @@ use crate::text::{push_byte, push_hex64, push_hex8, push_i64, push_str, push_u32
 use crate::{Command, Full, Line, Rejection};
 use kernel::config::{ArmConfig, HomingConfig, JointConfig};
 use kernel::homing::Phase;
-use kernel::{Event, FaultReason, HardwareFault, Reject, RequestKind, State, StopCause};
+use kernel::{DriverCause, Event, FaultReason, HardwareFault, Reject, RequestKind, State, StopCause};
 
 /// Protocol revision printed in the banner.
 pub const PROTOCOL_REVISION: u32 = 1;
@@ -42,6 +42,21 @@ fn named_joint(out: &mut Line, name: &str, axis: u8) -> Result<(), Full> {
     push_str(out, name)?;
     push_byte(out, b' ')?;
     joint(out, axis)
+}
+
+/// The wire token of a driver's diagnostic (`docs/PROTOCOL.md` section 4.2).
+pub const fn driver_cause_name(c: DriverCause) -> &'static str {
+    match c {
+        DriverCause::Missing => "MISSING",
+        DriverCause::WrongVersion => "WRONG_VERSION",
+        DriverCause::Reset => "RESET",
+        DriverCause::DriverError => "DRV_ERR",
+        DriverCause::ChargePump => "UV_CP",
+        DriverCause::Overtemperature => "OVERTEMP",
+        DriverCause::ShortToGround => "SHORT_TO_GROUND",
+        DriverCause::ShortToSupply => "SHORT_TO_SUPPLY",
+        DriverCause::OpenLoad => "OPEN_LOAD",
+    }
 }
 
 const fn phase_name(p: Phase) -> &'static str {
@@ -118,6 +133,11 @@ fn fault_reason(out: &mut Line, r: &FaultReason) -> Result<(), Full> {
                 HardwareFault::SelfTest(code) => {
                     push_str(out, "SELF_TEST")?;
                     kv(out, "code", u32::from(code))
+                }
+                HardwareFault::DriverDiagnostic { axis, cause } => {
+                    named_joint(out, "DRIVER_DIAG", axis)?;
+                    push_byte(out, b' ')?;
+                    push_str(out, driver_cause_name(cause))
                 }
             }
         }

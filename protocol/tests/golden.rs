@@ -222,6 +222,13 @@ fn event_lines() {
         "HOMING_FAULT HOMING_TIMEOUT J3 phase=FAST_SEEK"
     );
     assert_eq!(ev(Event::Fault(FaultReason::Hardware(HardwareFault::Driver { axis: 1 }))), "FAULT HARDWARE DRIVER J2");
+    assert_eq!(
+        ev(Event::Fault(FaultReason::Hardware(HardwareFault::DriverDiagnostic {
+            axis: 2,
+            cause: kernel::DriverCause::Overtemperature
+        }))),
+        "FAULT HARDWARE DRIVER_DIAG J3 OVERTEMP"
+    );
     assert_eq!(ev(Event::HomingStarted { mask: 0x3F }), "HOMING_STARTED mask=0x3F");
     assert_eq!(ev(Event::HomingDone { mask: 0x3F }), "HOMING_DONE mask=0x3F");
     assert_eq!(
@@ -282,7 +289,19 @@ fn only_faults_and_soft_estops_reach_the_fault_log() {
         FaultReason::Hardware(HardwareFault::TickOverrun),
         FaultReason::Hardware(HardwareFault::SelfTest(255)),
     ];
-    for f in faults {
+    let causes = [
+        kernel::DriverCause::Missing,
+        kernel::DriverCause::WrongVersion,
+        kernel::DriverCause::Reset,
+        kernel::DriverCause::DriverError,
+        kernel::DriverCause::ChargePump,
+        kernel::DriverCause::Overtemperature,
+        kernel::DriverCause::ShortToGround,
+        kernel::DriverCause::ShortToSupply,
+        kernel::DriverCause::OpenLoad,
+    ];
+    let driver = causes.map(|cause| FaultReason::Hardware(HardwareFault::DriverDiagnostic { axis: 5, cause }));
+    for f in faults.into_iter().chain(driver) {
         assert!(ev(Event::Fault(f)).contains("FAULT"));
         let refused = ev(Event::Rejected { request: RequestKind::Enable, reason: Reject::CauseActive(f) });
         assert!(!refused.contains("FAULT") && !refused.contains("SOFT_ESTOP"), "{refused}");

@@ -5,6 +5,7 @@
 use rustc_hash::FxHashMap;
 
 use crate::gpt::Gpt;
+use crate::lpspi::{Frame, Lpspi};
 use crate::lpuart::Uart;
 use crate::lpuart::IRQ_LPUART6;
 use crate::pads::{self, wiring, Gpio};
@@ -12,6 +13,7 @@ use crate::pit::{Pit, IRQ_PIT};
 use crate::plant::Plant;
 use crate::pwm::FlexPwm;
 use crate::qtimer::{InputWave, QTimer};
+use crate::tmc5160::Tmc5160;
 use crate::wdog::Wdog;
 
 /// CPU cycles per second. The twin keeps its own figures for the chip and
@@ -32,6 +34,7 @@ const PIT: u32 = 0x4008_4000;
 const GPT: [u32; 2] = [0x401E_C000, 0x401F_0000];
 const RTWDOG: u32 = 0x400B_C000;
 const LPUART6: u32 = 0x4019_8000;
+const LPSPI3: u32 = 0x4039_C000;
 const TMR: [u32; 4] = [0x401D_C000, 0x401E_0000, 0x401E_4000, 0x401E_8000];
 const PWM: [u32; 4] = [0x403D_C000, 0x403E_0000, 0x403E_4000, 0x403E_8000];
 const XBARA1: u32 = 0x403B_C000;
@@ -69,6 +72,13 @@ pub struct Board {
     pub cpu_hz: f64,
     /// LPUART6.
     pub uart: Uart,
+    /// LPSPI3 (the TMC5160 link).
+    pub spi3: Lpspi,
+    /// The six TMC5160 drivers on LPSPI3, J1..J6 (separate chips: a reset
+    /// of the processor leaves them as they are).
+    pub tmc: [Tmc5160; 6],
+    /// Each driver's chip-select level as last seen (high = deselected).
+    tmc_cs_high: [bool; 6],
     /// TMR1..4.
     pub tmr: [QTimer; 4],
     /// PWM1..4.
@@ -173,6 +183,9 @@ impl Board {
             gpt: Default::default(),
             cpu_hz: CPU_HZ as f64,
             uart: Uart::default(),
+            spi3: Lpspi::default(),
+            tmc: Default::default(),
+            tmc_cs_high: [true; 6],
             tmr: Default::default(),
             pwm: Default::default(),
             xbar: [0; 132],
@@ -225,6 +238,8 @@ impl Board {
         self.wdog = Wdog::after_boot_rom();
         self.gpt = Default::default();
         self.uart.reset(self.now);
+        self.spi3.reset();
+        self.tmc_cs_update();
         self.tmr = Default::default();
         for p in self.pwm.iter_mut() {
             let rec = p.record;
@@ -441,6 +456,75 @@ impl Board {
         self.uart.tx_next_event(self.now)
     }
 
+    // ------------------------------------------------------------ LPSPI3, TMC5160
+
+    /// LPSPI3's functional clock: `CBCMR[LPSPI_CLK_SEL]` (bits 5:4) = 2
+    /// (PLL2, 528 MHz) divided by `LPSPI_PODF` (bits 28:26) + 1, with the
+    /// clock gate (`CCGR1` CG2) open; other sources are not modelled (no
+    /// frame then completes).
+    fn lpspi_clk_hz(&self) -> Option<f64> {
+        let cbcmr = self.regs.get(&(CCM + 0x18)).copied().unwrap_or_else(|| reset_value(CCM + 0x18));
+        let ccgr1 = self.regs.get(&(CCM + 0x6C)).copied().unwrap_or_else(|| reset_value(CCM + 0x6C));
+        if (cbcmr >> 4) & 3 != 2 || (ccgr1 >> 4) & 3 == 0 {
+            return None;
+        }
+        Some(528e6 / f64::from(((cbcmr >> 26) & 7) + 1))
+    }
+
+    /// The level of driver `i`'s chip select: the GPIO's if the pad drives
+    /// it, else high (the pull-up the wiring specifies).
+    fn tmc_cs_level(&self, i: usize) -> bool {
+        self.gpio_out(pads::TMC_CS[i]).unwrap_or(true)
+    }
+
+    /// Chip-select edges: a rising one makes the driver act on its datagram.
+    fn tmc_cs_update(&mut self) {
+        for i in 0..6 {
+            let high = self.tmc_cs_level(i);
+            if high && !self.tmc_cs_high[i] {
+                self.tmc[i].deselect();
+            }
+            self.tmc_cs_high[i] = high;
+        }
+    }
+
+    /// The pad carries LPSPI3's signal: ALT2 and the signal's select input
+    /// (IOMUXC offset `daisy`) set to 1 (the Teensy pad).
+    fn lpspi3_pad(&self, pin: u8, daisy: u32) -> bool {
+        pads::teensy_pad(pin).is_some_and(|p| self.pad_mux(p).0 == 2) && self.iomux(daisy) & 1 == 1
+    }
+
+    /// Shift `frame` through the selected drivers; the bits LPSPI3's SDI
+    /// receives. SCK or SDO not routed to their pads: no driver sees the
+    /// frame. SDI not routed: zeros. No driver driving SDO (none selected,
+    /// none fitted): the pad's pull-up (ones) or zeros without one. Two
+    /// drivers selected at once: their outputs wired-AND.
+    fn spi_shift(&mut self, frame: Frame) -> u64 {
+        let ones = if frame.bits >= 64 { u64::MAX } else { (1u64 << frame.bits) - 1 };
+        let to_drivers = self.lpspi3_pad(pads::TMC_SCK, 0x510) && self.lpspi3_pad(pads::TMC_SDO, 0x518);
+        let mut out: Option<u64> = None;
+        if to_drivers && frame.bits == 40 {
+            for i in 0..6 {
+                if !self.tmc_cs_level(i) && self.tmc[i].present {
+                    let o = self.tmc[i].shift(frame.data);
+                    out = Some(out.map_or(o, |a| a & o));
+                }
+            }
+        }
+        if !self.lpspi3_pad(pads::TMC_SDI, 0x514) {
+            return 0;
+        }
+        out.unwrap_or_else(|| {
+            let p = pads::teensy_pad(pads::TMC_SDI).map(|p| self.iomux(p.pad_offset())).unwrap_or(0);
+            let pull_up = p & (1 << 12) != 0 && p & (1 << 13) != 0 && (p >> 14) & 3 != 0;
+            if pull_up {
+                ones
+            } else {
+                0
+            }
+        })
+    }
+
     // ------------------------------------------------------------ MMIO
 
     /// Peripheral read (address in 0x4000_0000..0x4040_0000 or GPIO6..9).
@@ -488,6 +572,7 @@ impl Board {
             RTWDOG => return self.wdog.read(off, self.now),
             b if GPT.contains(&b) => return self.gpt[usize::from(b == GPT[1])].read(off, self.now, self.cpu_hz),
             LPUART6 => return self.uart.read(off, self.now),
+            LPSPI3 => return self.spi3.read(off, self.now),
             SRC if off == 0x8 => return self.srsr,
             _ => {}
         }
@@ -568,6 +653,7 @@ impl Board {
         let off = a & 0x3FFF;
         if let Some(p) = GPIO.iter().position(|&b| b == base) {
             self.gpio[p].write(off, v);
+            self.tmc_cs_update();
             return;
         }
         match base {
@@ -593,6 +679,14 @@ impl Board {
             LPUART6 => {
                 let byte = self.uart_byte_cycles();
                 return self.uart.write(off, v, self.now, byte);
+            }
+            LPSPI3 => {
+                if let Some(frame) = self.spi3.write(off, v, self.now) {
+                    let answer = self.spi_shift(frame);
+                    let cycles = self.lpspi_clk_hz().map_or(u64::MAX / 2, |hz| self.spi3.frame_cycles(hz));
+                    self.spi3.complete(frame, answer, self.now, cycles);
+                }
+                return;
             }
             SRC if off == 0x8 => {
                 self.srsr &= !v;

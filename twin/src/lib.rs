@@ -5,6 +5,7 @@
 pub mod board;
 pub mod elf;
 pub mod gpt;
+pub mod lpspi;
 pub mod lpuart;
 pub mod machine;
 pub mod mpu;
@@ -16,6 +17,7 @@ pub mod pwm;
 pub mod qtimer;
 pub mod ram_fault;
 pub mod scenario;
+pub mod tmc5160;
 pub mod wdog;
 
 pub use board::{Board, CPU_HZ};
@@ -48,6 +50,19 @@ pub fn load_driver_enable_image() -> Result<Vec<u8>, String> {
     let path = std::env::var("TWIN_ELF_DRIVER_ENABLE").unwrap_or_else(|_| {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
         root.join(IMAGE_DRIVER_ENABLE).to_string_lossy().into_owned()
+    });
+    std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+}
+
+/// The Serial1 image built with the TMC5160 link (firmware feature
+/// `tmc5160-spi`).
+pub const IMAGE_TMC5160: &str = "target/twin/parol6-serial1-tmc5160.elf";
+
+/// Load [`IMAGE_TMC5160`] (env `TWIN_ELF_TMC5160` overrides the path).
+pub fn load_tmc5160_image() -> Result<Vec<u8>, String> {
+    let path = std::env::var("TWIN_ELF_TMC5160").unwrap_or_else(|_| {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        root.join(IMAGE_TMC5160).to_string_lossy().into_owned()
     });
     std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
 }

@@ -93,6 +93,8 @@ pub const fn teensy_pad(pin: u8) -> Option<Pad> {
         13 => pad(B0, 3),
         14 => pad(AdB1, 2),
         15 => pad(AdB1, 3),
+        16 => pad(AdB1, 7),
+        17 => pad(AdB1, 6),
         18 => pad(AdB1, 1),
         19 => pad(AdB1, 0),
         20 => pad(AdB1, 10),
@@ -101,6 +103,9 @@ pub const fn teensy_pad(pin: u8) -> Option<Pad> {
         23 => pad(AdB1, 9),
         24 => pad(AdB0, 12),
         25 => pad(AdB0, 13),
+        26 => pad(AdB1, 14),
+        27 => pad(AdB1, 15),
+        28 => pad(Emc, 32),
         29 => pad(Emc, 31),
         30 => pad(Emc, 37),
         31 => pad(Emc, 36),
@@ -110,6 +115,10 @@ pub const fn teensy_pad(pin: u8) -> Option<Pad> {
         35 => pad(B1, 12),
         36 => pad(B1, 2),
         37 => pad(B1, 3),
+        38 => pad(AdB1, 12),
+        39 => pad(AdB1, 13),
+        40 => pad(AdB1, 4),
+        41 => pad(AdB1, 5),
         _ => return None,
     })
 }
@@ -207,6 +216,15 @@ pub fn wiring() -> &'static Wiring {
 /// `DRV_ENN` (active low), pulled up at the drivers (10 kOhm to 3.3 V): the
 /// line is high (drivers off) unless a GPIO output drives it.
 pub const DRIVER_ENABLE_PIN: u8 = 3;
+/// The TMC5160 link (firmware feature `tmc5160-spi`): LPSPI3 SCK, SDO, SDI
+/// (Teensy "SPI1": pins 27, 26, 39) and the chip selects of J1..J6.
+pub const TMC_SCK: u8 = 27;
+/// LPSPI3 SDO (to the drivers' SDI).
+pub const TMC_SDO: u8 = 26;
+/// LPSPI3 SDI (from the drivers' SDO).
+pub const TMC_SDI: u8 = 39;
+/// Chip select of each driver, J1..J6 (GPIO, active low).
+pub const TMC_CS: [u8; 6] = [38, 40, 41, 17, 16, 28];
 
 /// IOMUXC offsets of the LPUART6 pads and daisy registers.
 pub const LPUART6_RX_SELECT: u32 = 0x550;

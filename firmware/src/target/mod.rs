@@ -57,8 +57,12 @@ use protocol::report::config_fingerprint;
 
 use port::Wake;
 
-#[cfg(feature = "tmc5160-selftest")]
-compile_error!("tmc5160-selftest: not implemented (no TMC5160 SPI chip-select wiring in the pin map)");
+#[cfg(feature = "tmc5160-spi")]
+use hal_imxrt::periph::lpspi::TmcLink;
+#[cfg(feature = "tmc5160-spi")]
+use hal_imxrt::pure::pins::TMC_WIRING;
+#[cfg(feature = "tmc5160-spi")]
+use hal_imxrt::pure::tmc5160::{self, Datagram, Monitor, Reply};
 
 /// The pin map (checked at compile time by `PinMap::validated`): the
 /// original wiring (J6 STEP on pin 7 through XBARA1), or J6 on pin 36 with
@@ -114,6 +118,11 @@ struct Teensy {
     /// The drivers' enable output (`DRIVER_ENABLE`), configured inactive.
     #[cfg(feature = "driver-enable")]
     enable: hal_imxrt::pure::pins::GpioBit,
+    /// The TMC5160 link and its run-time monitor.
+    #[cfg(feature = "tmc5160-spi")]
+    tmc: TmcLink,
+    #[cfg(feature = "tmc5160-spi")]
+    drivers: Monitor,
 }
 
 impl TickBoard for Teensy {
@@ -150,6 +159,16 @@ impl TickBoard for Teensy {
     fn drivers_enable(&mut self, on: bool) {
         let high = firmware::driver_enable::enable_level_high(on, DRIVER_ENABLE.active_high);
         self.gpios.write(self.enable, high);
+    }
+    /// Collect the `DRV_STATUS` read started in the previous tick, then
+    /// start the next one (one driver per tick, `tmc5160::Monitor`).
+    #[cfg(feature = "tmc5160-spi")]
+    #[inline(always)]
+    fn driver_fault(&mut self) -> Option<(u8, kernel::DriverCause)> {
+        let reply = self.tmc.finish(&self.gpios);
+        self.drivers.on_reply(reply);
+        self.tmc.start(&self.gpios, self.drivers.driver(), Datagram::read(tmc5160::REG_DRV_STATUS));
+        self.drivers.fault().map(|(axis, f)| (axis, firmware::driver_cause(f)))
     }
     fn boot_wait_ms(&mut self) {
         let t = self.cycles.now();
@@ -277,6 +296,8 @@ fn main() -> ! {
     if iomux::configure_pins(&inst.IOMUXC, &inst.IOMUXC_GPR, &MAP).is_err() {
         halt()
     }
+    #[cfg(feature = "tmc5160-spi")]
+    iomux::configure_tmc_pins(&inst.IOMUXC, &inst.IOMUXC_GPR, &TMC_WIRING);
     let gpios = Gpios::new(inst.GPIO1, inst.GPIO2, inst.GPIO3, inst.GPIO4);
     // --- the drivers' enable output: from the pad's reset state (input,
     // the external pull-up holds DRV_ENN high) to an output driven
@@ -313,6 +334,14 @@ fn main() -> ! {
     // temporaries leave the stack before the main loop runs (built inline,
     // `main`'s frame reserved 15-16 KiB of the 16 KiB stack and the first
     // event line overflowed it: found by the register-level twin).
+    // --- the TMC5160 drivers identified and checked (sanity check at boot);
+    // a failing driver is reported from the first tick on.
+    #[cfg(feature = "tmc5160-spi")]
+    let (tmc, drivers) = {
+        let mut link = TmcLink::new(inst.LPSPI3, &inst.CCM, &gpios, &TMC_WIRING);
+        let drivers = tmc_boot_check(&mut link, &gpios, &cycles);
+        (link, drivers)
+    };
     let tick = Tick::start(inst.PIT, PIT_LDVAL);
     let board = Teensy {
         tick,
@@ -325,6 +354,10 @@ fn main() -> ! {
         clock,
         #[cfg(feature = "driver-enable")]
         enable,
+        #[cfg(feature = "tmc5160-spi")]
+        tmc,
+        #[cfg(feature = "tmc5160-spi")]
+        drivers,
     };
     let (host, boot) = init_root(board, marker, reset, &mut serial1, &inst.IOMUXC);
 
@@ -408,6 +441,26 @@ fn stack_guard(mpu: &mut cortex_m::peripheral::MPU) {
     }
     cortex_m::asm::dsb();
     cortex_m::asm::isb();
+}
+
+/// The boot check of each TMC5160 (`tmc5160::BOOT_SEQUENCE`, waiting for
+/// each answer; an answer that does not come counts as a silent line), then
+/// the first run-time `DRV_STATUS` read started, so every tick has one to
+/// collect.
+#[cfg(feature = "tmc5160-spi")]
+fn tmc_boot_check(link: &mut TmcLink, gpios: &Gpios, cycles: &CycleCounter) -> Monitor {
+    const SILENT: Reply = Reply { status: 0xFF, data: 0xFFFF_FFFF };
+    let mut verdicts = [None; tmc5160::DRIVERS];
+    for (driver, verdict) in verdicts.iter_mut().enumerate() {
+        let mut replies = [SILENT; 5];
+        for (r, d) in replies.iter_mut().zip(tmc5160::BOOT_SEQUENCE) {
+            *r = link.transfer(gpios, cycles, driver, d).unwrap_or(SILENT);
+        }
+        *verdict = tmc5160::boot_verdict(&replies);
+    }
+    let drivers = Monitor::after_boot(verdicts);
+    link.start(gpios, drivers.driver(), Datagram::read(tmc5160::REG_DRV_STATUS));
+    drivers
 }
 
 fn cycles_now() -> u32 {

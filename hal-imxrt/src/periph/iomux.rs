@@ -200,3 +200,27 @@ pub fn configure_enable_pin(
     set_mux(io, tp.pad, GPIO_ALT as u32);
     Ok(tp.gpio)
 }
+
+/// Configure the TMC5160 link's pads (`pins::TMC_WIRING`): LPSPI3 SCK and
+/// SDO push-pull, SDI with the 22 k pull-up (a missing driver reads all
+/// ones), their select inputs; the chip selects as standard GPIO outputs
+/// with the keeper (the caller drives them high before making them
+/// outputs: `periph::lpspi::TmcLink::new`).
+pub fn configure_tmc_pins(io: &iomuxc::IOMUXC, gpr: &iomuxc_gpr::IOMUXC_GPR, w: &pins::TmcWiring) {
+    set_pad(io, w.sck.pad, PAD_OUTPUT);
+    set_mux(io, w.sck.pad, u32::from(w.sck.alt));
+    set_pad(io, w.sdo.pad, PAD_OUTPUT);
+    set_mux(io, w.sdo.pad, u32::from(w.sdo.alt));
+    set_pad(io, w.sdi.pad, PAD_INPUT_PULLUP);
+    set_mux(io, w.sdi.pad, u32::from(w.sdi.alt));
+    ral::write_reg!(ral::iomuxc, io, LPSPI3_SCK_SELECT_INPUT, u32::from(w.sck.daisy));
+    ral::write_reg!(ral::iomuxc, io, LPSPI3_SDO_SELECT_INPUT, u32::from(w.sdo.daisy));
+    ral::write_reg!(ral::iomuxc, io, LPSPI3_SDI_SELECT_INPUT, u32::from(w.sdi.daisy));
+    for &p in &w.cs {
+        if let Some(tp) = pins::teensy41_pin(p) {
+            select_standard_gpio(gpr, tp.gpio);
+            set_pad(io, tp.pad, PAD_OUTPUT);
+            set_mux(io, tp.pad, GPIO_ALT as u32);
+        }
+    }
+}

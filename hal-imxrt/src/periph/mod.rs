@@ -20,6 +20,7 @@ pub mod cycles;
 pub mod frame_capture;
 pub mod gpio;
 pub mod iomux;
+pub mod lpspi;
 pub mod panic_stop;
 pub mod step;
 pub mod tick;

@@ -1,0 +1,192 @@
+//! The TMC5160 link on the Serial1 image built with the firmware feature
+//! `tmc5160-spi` (`target/twin/parol6-serial1-tmc5160.elf`, evidence kind:
+//! **emulated**): LPSPI3 and six TMC5160 register files modelled by the twin
+//! (`twin/src/lpspi.rs`, `twin/src/tmc5160.rs`). Each test puts one driver in
+//! one condition, at power-on (the boot check) or while the image runs (the
+//! one-driver-per-tick `DRV_STATUS` poll), and requires the fault line that
+//! names the driver and the condition, nothing stepping, and `<ENABLE>`
+//! refused while the condition lasts.
+
+mod common;
+
+use common::{lines, run};
+use twin::tmc5160::Condition;
+use twin::{load_tmc5160_image, Plant, Twin, MS, START_Q};
+
+fn boot() -> Twin {
+    let elf = load_tmc5160_image().unwrap();
+    Twin::new(&elf, Plant::new(&kernel::config::PAROL6, START_Q)).unwrap()
+}
+
+/// Runs in 1 ms steps from `from_ms` to `until_ms`; the time (ms after
+/// power-on) at which `line` was first complete on Serial1.
+fn seen_at(t: &mut Twin, line: &str, from_ms: u64, until_ms: u64) -> Option<u64> {
+    let mut ms = from_ms;
+    while ms < until_ms {
+        ms += 1;
+        run(t, ms);
+        if lines(t).iter().any(|l| l == line) {
+            return Some(ms);
+        }
+    }
+    None
+}
+
+fn steps(t: &Twin) -> i64 {
+    t.board().plant.joints.iter().map(|j| j.steps.abs()).sum()
+}
+
+/// The fault is latched: `<ENABLE>` is refused with the cause named, no
+/// `ENABLED`, nothing stepped.
+fn enable_refused(t: &mut Twin, at_ms: u64, reason: &str) {
+    t.board_mut().serial_send(b"<ENABLE>\n");
+    run(t, at_ms + 60);
+    let l = lines(t);
+    assert!(!l.iter().any(|s| s.starts_with("ENABLED")), "enabled with {reason} present: {l:?}");
+    assert!(l.iter().any(|s| s == &format!("REFUSED ENABLE CAUSE_ACTIVE HARDWARE {reason}")), "{l:?}");
+    assert_eq!(steps(t), 0, "a joint stepped");
+}
+
+/// Healthy drivers: no fault line, `READY`, every driver addressed at boot
+/// (five datagrams each) and then in turn, one per tick.
+#[test]
+fn driver_spi_healthy_drivers_pass_the_boot_check_and_are_polled_in_turn() {
+    let mut t = boot();
+    run(&mut t, 300);
+    let l = lines(&t);
+    assert!(l.iter().any(|s| s == "READY"), "{l:?}");
+    assert!(!l.iter().any(|s| s.contains("FAULT")), "{l:?}");
+    let ticks = t.stats.pit_calls;
+    let counts: Vec<u64> = t.board().tmc.iter().map(|d| d.datagrams).collect();
+    println!("driver SPI: {ticks} ticks, datagrams acted on per driver {counts:?}");
+    for (i, &c) in counts.iter().enumerate() {
+        // 5 at boot, then one every 6 ticks (the read in flight not yet acted on)
+        let want = 5 + ticks / 6;
+        assert!(c.abs_diff(want) <= 1, "J{}: {c} datagrams, want about {want}", i + 1);
+    }
+}
+
+/// A missing driver (J4's SDO never driven: the SDI pull-up reads all
+/// ones), a wrong chip (J2 answers VERSION 0x11) and a latched `drv_err`
+/// (J5's `GSTAT`) are found by the boot check and reported from the first
+/// tick, before `READY`.
+#[test]
+fn driver_spi_boot_check_names_a_missing_wrong_or_failed_driver() {
+    type Setup = fn(&mut twin::tmc5160::Tmc5160);
+    let cases: [(usize, Setup, &str); 3] = [
+        (3, |d| d.present = false, "DRIVER_DIAG J4 MISSING"),
+        (1, |d| d.ioin = 0x1100_0050, "DRIVER_DIAG J2 WRONG_VERSION"),
+        (4, |d| d.inject(Condition::DrvErrLatched), "DRIVER_DIAG J5 DRV_ERR"),
+    ];
+    for (axis, setup, reason) in cases {
+        let mut t = boot();
+        setup(&mut t.board_mut().tmc[axis]);
+        let line = format!("FAULT HARDWARE {reason}");
+        let at = seen_at(&mut t, &line, 0, 150);
+        let l = lines(&t);
+        let Some(at) = at else { panic!("{reason}: no fault line within 150 ms: {l:?}") };
+        let first_tick = t.stats.pit_entries.first().copied().unwrap_or(u64::MAX);
+        println!(
+            "driver SPI boot check: {reason}: first tick at {:.2} ms, fault line complete at {at} ms after power-on",
+            first_tick as f64 / MS as f64
+        );
+        let faults: Vec<&String> = l.iter().filter(|s| s.starts_with("FAULT")).collect();
+        assert_eq!(faults.first().map(|s| s.as_str()), Some(line.as_str()), "{l:?}");
+        enable_refused(&mut t, at, reason);
+    }
+}
+
+/// While the image runs (Unhomed, 200 ms after power-on) one driver
+/// overheats, shorts a phase to ground or to the supply, or loses a coil:
+/// the fault line names it within the poll's period plus the follow-up
+/// read (OT, shorts: `GSTAT.drv_err` shows in the status byte of the
+/// driver's next answer, the follow-up read names it; open load: the
+/// `DRV_STATUS` read of the driver's next turn carries it on the turn
+/// after).
+#[test]
+fn driver_spi_running_drivers_report_overtemperature_shorts_and_open_load() {
+    let cases = [
+        (2, Condition::Overtemperature, "DRIVER_DIAG J3 OVERTEMP", 8),
+        (0, Condition::ShortToGround, "DRIVER_DIAG J1 SHORT_TO_GROUND", 8),
+        (5, Condition::ShortToSupply, "DRIVER_DIAG J6 SHORT_TO_SUPPLY", 8),
+        (3, Condition::OpenLoad, "DRIVER_DIAG J4 OPEN_LOAD", 13),
+    ];
+    for (axis, condition, reason, bound_ms) in cases {
+        let mut t = boot();
+        run(&mut t, 200);
+        assert!(lines(&t).iter().any(|s| s == "READY"));
+        assert!(!lines(&t).iter().any(|s| s.contains("FAULT")), "{:?}", lines(&t));
+        let ticks_before = t.stats.pit_calls;
+        t.board_mut().tmc[axis].inject(condition);
+        let line = format!("FAULT HARDWARE {reason}");
+        let at = seen_at(&mut t, &line, 200, 300);
+        let l = lines(&t);
+        let Some(at) = at else { panic!("{reason}: no fault line within 100 ms: {l:?}") };
+        // the tick that faulted: the first whose events carried the fault is
+        // the line's; the line then needs its bytes on Serial1 (~4 ms)
+        let ticks = t.stats.pit_calls - ticks_before;
+        println!(
+            "driver SPI run time: {reason}: fault line complete {} ms after the injection ({ticks} ticks)",
+            at - 200
+        );
+        // detection (<= bound) plus the line's time on the wire
+        assert!(at - 200 <= bound_ms + 5, "{reason}: {} ms", at - 200);
+        enable_refused(&mut t, at, reason);
+    }
+}
+
+/// The condition clears (the driver cooled down, its `GSTAT` cleared):
+/// `<ENABLE>` is then accepted, the arm is unhomed again.
+#[test]
+fn driver_spi_enable_is_accepted_once_the_driver_reports_clean() {
+    let mut t = boot();
+    run(&mut t, 200);
+    t.board_mut().tmc[1].inject(Condition::OpenLoad);
+    let at = seen_at(&mut t, "FAULT HARDWARE DRIVER_DIAG J2 OPEN_LOAD", 200, 300).expect("fault line");
+    let d = &mut t.board_mut().tmc[1];
+    d.drv_status &= !(1 << 29);
+    run(&mut t, at + 20);
+    t.board_mut().serial_send(b"<ENABLE>\n");
+    run(&mut t, at + 80);
+    let l = lines(&t);
+    assert!(l.iter().any(|s| s.starts_with("ENABLED")), "{l:?}");
+}
+
+/// What the link costs: the tick interrupt's instructions (median over
+/// 250 ticks) and the time of the first tick after power-on, the image
+/// with the link against the Serial1 image without it, both with healthy
+/// drivers (the link's frames counted on both: 30 at boot and one per
+/// tick with it, none without). Bounds: under 1,000 more instructions per tick (1.7 us of
+/// the 1 ms period; the datagram's 20 us on the wire run between ticks)
+/// and under 2 ms more boot.
+#[test]
+fn driver_spi_cost_per_tick_and_at_boot() {
+    let median = |t: &Twin| {
+        let mut v = t.stats.pit_instructions.clone();
+        v.sort_unstable();
+        v[v.len() / 2]
+    };
+    let mut with = boot();
+    run(&mut with, 300);
+    let mut without = twin::boot_twin().unwrap();
+    run(&mut without, 300);
+    for t in [&with, &without] {
+        assert!(lines(t).iter().any(|s| s == "READY"));
+        assert!(t.stats.pit_instructions.len() >= 250);
+    }
+    // the link ran: 30 datagrams at boot and one per tick; the image
+    // without the feature never drives LPSPI3
+    let frames = with.board().spi3.frames;
+    let ticks = with.stats.pit_calls;
+    assert!(frames >= 30 + ticks - 1, "{frames} frames in {ticks} ticks");
+    assert_eq!(without.board().spi3.frames, 0);
+    let (a, b) = (median(&with), median(&without));
+    let first = |t: &Twin| t.stats.pit_entries.first().copied().unwrap_or(0) as f64 / MS as f64;
+    let (fa, fb) = (first(&with), first(&without));
+    println!("driver SPI cost: tick interrupt median {a} instructions with the link, {b} without (+{}); first tick at {fa:.3} ms with, {fb:.3} ms without (+{:.3} ms)", a as i64 - b as i64, fa - fb);
+    if let Some(s) = twin::pit_instruction_summary(&with.stats.pit_instructions) {
+        println!("with the link: {s}");
+    }
+    assert!(a < b + 1_000, "{a} vs {b}");
+    assert!(fa - fb < 2.0, "boot {fa} vs {fb} ms");
+}
