@@ -72,11 +72,13 @@ fn operational_tick<S: Sym>() {
     );
 }
 
+/// Footprint: 43 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; kernel, monitor and any_sense: 6 axes (7)
 fn operational_tick_is_safe_f32() {
     operational_tick::<f32>();
 }
+/// Footprint: 43 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn operational_tick_is_safe_fx() {
@@ -148,11 +150,13 @@ fn from_power_on<S: Sym>() {
     kani::cover!(second_group_moved, "an axis of the second homing group moved (after J6 homed)");
 }
 
+/// Footprint: 158 symbolic values, 11 ticks (the first readings, then per tick a request (up to a target) and the switches).
 #[kani::proof]
 #[kani::unwind(11)] // POWER_ON_TICKS = 10 ticks; kernel, monitor and the encoder loops: 6 axes (7)
 fn nothing_moves_unless_homed_and_homing_order_holds_f32() {
     from_power_on::<f32>();
 }
+/// Footprint: 158 symbolic values, 11 ticks (the first readings, then per tick a request (up to a target) and the switches).
 #[kani::proof]
 #[kani::unwind(11)] // as the f32 harness
 fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
@@ -221,11 +225,13 @@ fn soft_stop<S: Sym>() {
     }
 }
 
+/// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: 25 ticks; 12 ticks of silence here; 6 axes
 fn soft_stop_ramps_monotonically_to_zero_and_latches_f32() {
     soft_stop::<f32>();
 }
+/// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn soft_stop_ramps_monotonically_to_zero_and_latches_fx() {
@@ -262,11 +268,13 @@ fn enable<S: Sym>() {
     }
 }
 
+/// Footprint: 16 symbolic values, 29 ticks (the switch and one sensor reading).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: 25 ticks; any_sense, kernel, monitor: 6 axes
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
     enable::<f32>();
 }
+/// Footprint: 16 symbolic values, 29 ticks (the switch and one sensor reading).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {
@@ -292,11 +300,13 @@ fn encoder_loss<S: Sym>() {
     assert!(o.status.fault.map(|f| f.reason) == Some(kernel::FaultReason::EncoderLost { axis: axis as u8 }));
 }
 
+/// Footprint: 1 symbolic values, 30 ticks (the axis).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: 25 ticks; encoder_invalid_limit (2) ticks here; 6 axes
 fn encoder_loss_beyond_the_tolerance_faults_f32() {
     encoder_loss::<f32>();
 }
+/// Footprint: 1 symbolic values, 30 ticks (the axis).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn encoder_loss_beyond_the_tolerance_faults_fx() {
@@ -315,11 +325,13 @@ fn rehome<S: Sym>() {
     kani::cover!(true);
 }
 
+/// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing, twice: 25 ticks per entry; 6 axes
 fn homing_is_repeatable_f32() {
     rehome::<f32>();
 }
+/// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn homing_is_repeatable_fx() {
@@ -367,11 +379,13 @@ fn runaway<S: Sym>() {
     kani::cover!(fired, "a runaway fault");
 }
 
+/// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign).
 #[kani::proof]
 #[kani::unwind(31)] // RUNAWAY_TICKS = 30 (setup::run_homing: 21); 6 axes
 fn runaway_faults_when_the_estimate_exceeds_the_threshold_f32() {
     runaway::<f32>();
 }
+/// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign).
 #[kani::proof]
 #[kani::unwind(31)] // as the f32 harness
 fn runaway_faults_when_the_estimate_exceeds_the_threshold_fx() {

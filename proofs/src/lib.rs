@@ -18,6 +18,20 @@
 //! and their helpers (`#[cfg_attr(not(kani), kani::loops)]`) and requires
 //! `KERNEL_UNWIND` of every harness that runs a tick.
 
+//!
+//! Footprint: every harness states, in its documentation, how many
+//! symbolic values it draws (each primitive value a `kani::any()` gives:
+//! an `f32`, a `u8`, a `bool`) and how many kernel ticks it runs, set-up
+//! included, on its longest path (`/// Footprint: N symbolic values, T
+//! ticks`), counted from its code. The shim counts both on every case and
+//! fails a case that exceeds either (`kani::runner::Footprint`); its report
+//! line gives the largest seen. Draws that only steer the shim's sampling
+//! (`kani::runner::hint`, in `#[cfg(not(kani))]` code) are no symbolic
+//! values. Floating point: an `_f32` harness's kernel arithmetic is `f32`
+//! throughout (Kani bit-blasts each operation); an `_fx` harness's kernel
+//! arithmetic is integer, and every checked tick adds the monitor's checks
+//! (which compare in `f64`) in both variants.
+
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 pub mod setup;

@@ -62,11 +62,13 @@ fn only_enable_clears<S: Sym>() {
     assert!(o.act.velocity.iter().all(|v| *v == S::ZERO));
 }
 
+/// Footprint: 17 symbolic values, 38 ticks (the latch's cause and switch, the request (up to a target), the switches).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; 8 ticks here; 6 axes
 fn only_enable_clears_a_latch_f32() {
     only_enable_clears::<f32>();
 }
+/// Footprint: 17 symbolic values, 38 ticks (the latch's cause and switch, the request (up to a target), the switches).
 #[kani::proof]
 #[kani::unwind(26)] // as above
 fn only_enable_clears_a_latch_fx() {
@@ -99,11 +101,13 @@ fn link_loss<S: Sym>() {
     assert!(k.state() == State::SoftEstop || k.state() == State::Fault);
 }
 
+/// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)).
 #[kani::proof]
 #[kani::unwind(26)] // as above
 fn link_loss_while_moving_soft_stops_at_once_f32() {
     link_loss::<f32>();
 }
+/// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)).
 #[kani::proof]
 #[kani::unwind(26)] // as above
 fn link_loss_while_moving_soft_stops_at_once_fx() {
@@ -132,11 +136,13 @@ fn home_while_moving<S: Sym>() {
     assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Homing, .. })));
 }
 
+/// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay).
 #[kani::proof]
 #[kani::unwind(26)] // as above
 fn home_while_moving_stops_first_f32() {
     home_while_moving::<f32>();
 }
+/// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay).
 #[kani::proof]
 #[kani::unwind(26)] // as above
 fn home_while_moving_stops_first_fx() {

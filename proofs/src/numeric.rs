@@ -17,14 +17,17 @@ fn any_joint() -> usize {
 }
 
 /// Any value; for sampling, half of the draws are folded into `[lo, hi]`
-/// so that in-range cases are common. Symbolically it is still any value.
+/// so that in-range cases are common (a sampling hint, no symbolic value:
+/// under Kani it is any value, which already includes every folded one).
 pub(crate) fn any_mostly_in<S: Sym>(lo: S, hi: S) -> S {
     let v = S::any();
-    if kani::any() && v.is_finite() {
-        v.clamp_between(lo, hi)
-    } else {
-        v
+    #[cfg(not(kani))]
+    if kani::runner::hint::<bool>() && v.is_finite() {
+        return v.clamp_between(lo, hi);
     }
+    #[cfg(kani)]
+    let _ = (lo, hi);
+    v
 }
 
 /// Any finite value in `[lo, hi]` (every such value is reachable: finite
@@ -86,11 +89,13 @@ fn saturation<S: Sym>() -> bool {
     !x.is_finite()
 }
 
+/// Footprint: 2 symbolic values, 0 ticks (x and the limit).
 #[kani::proof]
 fn saturation_is_finite_and_bounded_f32() {
     let non_finite = saturation::<f32>();
     kani::cover!(non_finite, "non-finite input");
 }
+/// Footprint: 2 symbolic values, 0 ticks (x and the limit).
 #[kani::proof]
 fn saturation_is_finite_and_bounded_fx() {
     // No non-finite input exists: nothing to cover beyond the helper's.
@@ -121,12 +126,14 @@ fn control<S: Sym>() -> (bool, bool) {
     (non_finite, !ok)
 }
 
+/// Footprint: 4 symbolic values, 0 ticks (the joint, set-point, feed-forward, estimate).
 #[kani::proof]
 fn control_law_is_bounded_f32() {
     let (non_finite, not_ok) = control::<f32>();
     kani::cover!(non_finite, "a non-finite input (antecedent)");
     kani::cover!(not_ok, "not ok (antecedent)");
 }
+/// Footprint: 4 symbolic values, 0 ticks (the joint, set-point, feed-forward, estimate).
 #[kani::proof]
 fn control_law_is_bounded_fx() {
     // Fixed point has no non-finite value and its law saturates instead of
@@ -136,6 +143,7 @@ fn control_law_is_bounded_fx() {
 
 /// SR-12: the unwrapped count moves by exactly the shortest signed
 /// difference, so consecutive readings are continuous modulo 4096.
+/// Footprint: 2 symbolic values, 0 ticks (two counts).
 #[kani::proof]
 fn unwrapping_is_exact_and_continuous() {
     let first: u16 = kani::any();
@@ -178,10 +186,12 @@ fn observer<S: Sym>() {
     assert!(o.x >= lo.minus(slack) && o.x <= hi.plus(slack));
 }
 
+/// Footprint: 3 symbolic values, 0 ticks (x, v, z).
 #[kani::proof]
 fn observer_correction_is_between_prediction_and_measurement_f32() {
     observer::<f32>();
 }
+/// Footprint: 3 symbolic values, 0 ticks (x, v, z).
 #[kani::proof]
 fn observer_correction_is_between_prediction_and_measurement_fx() {
     observer::<Fx>();
@@ -255,19 +265,23 @@ fn setpoint_guarantee<S: Sym>() {
     assert!(lo2 >= lo.min(x) && hi2 <= hi.max(x), "the new interval reaches beyond the old one and the target");
 }
 
+/// Footprint: 8 symbolic values, 0 ticks (the joint, the interval's ends, set-point, target, estimate, velocity, speed).
 #[kani::proof]
 fn setpoint_guarantee_one_tick_f32() {
     setpoint_guarantee::<f32>();
 }
+/// Footprint: 8 symbolic values, 0 ticks (the joint, the interval's ends, set-point, target, estimate, velocity, speed).
 #[kani::proof]
 fn setpoint_guarantee_one_tick_fx() {
     setpoint_guarantee::<Fx>();
 }
 
+/// Footprint: 5 symbolic values, 0 ticks (the joint, set-point, target, velocity, speed).
 #[kani::proof]
 fn interpolator_step_is_acceleration_limited_and_never_passes_f32() {
     interpolator::<f32>();
 }
+/// Footprint: 5 symbolic values, 0 ticks (the joint, set-point, target, velocity, speed).
 #[kani::proof]
 fn interpolator_step_is_acceleration_limited_and_never_passes_fx() {
     interpolator::<Fx>();
@@ -298,11 +312,13 @@ fn validation<S: Sym>() {
     }
 }
 
+/// Footprint: 12 symbolic values, 27 ticks (a target (12 values); the ticks are the concrete set-up).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: 25 ticks; any_target and the checks: 6 axes
 fn accepted_targets_are_within_limits_f32() {
     validation::<f32>();
 }
+/// Footprint: 12 symbolic values, 27 ticks (a target (12 values); the ticks are the concrete set-up).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn accepted_targets_are_within_limits_fx() {

@@ -2,9 +2,11 @@
 //! loop exceeds its declared `#[kani::unwind(N)]`, as Kani's unwinding
 //! assertion does, and pass one whose loops fit; and it must fail a harness
 //! with a cover never satisfied, also one whose line never runs, as Kani's
-//! `--fail-uncoverable` fails an UNSATISFIABLE or UNREACHABLE cover.
+//! `--fail-uncoverable` fails an UNSATISFIABLE or UNREACHABLE cover; and
+//! it must fail a harness that draws more symbolic values or runs more
+//! ticks than its stated footprint, counting no sampling hint.
 
-use kani::runner::{check, needs_unwind};
+use kani::runner::{check, check_within, needs_unwind, Footprint};
 
 /// Three iterations of a `for`, a `while` and a labelled `loop` with a
 /// value: Kani needs `unwind(4)`.
@@ -144,4 +146,37 @@ fn every_unwind_is_justified() {
     // Every file with harnesses was read (kernel_props, motion_props,
     // numeric, state_props, wire).
     assert!(harness_files >= 5, "only {harness_files} harness files in {}", dir.display());
+}
+
+/// Three symbolic values (a `u8`, an array of two `bool`s), two ticks, and
+/// a sampling hint.
+fn three_values_two_ticks() {
+    let _: u8 = kani::any();
+    let _: [bool; 2] = kani::any();
+    let _: u32 = kani::runner::hint();
+    kani::runner::tick();
+    kani::runner::tick();
+}
+
+#[test]
+fn a_harness_beyond_its_stated_footprint_fails() {
+    let exact = Footprint { symbolic_values: 3, ticks: 2 };
+    let r = check_within("three_values_two_ticks", three_values_two_ticks, None, Some(exact)).expect("within");
+    assert_eq!(r.footprint, exact, "the hint is not a symbolic value");
+    let e = check_within(
+        "three_values_two_ticks",
+        three_values_two_ticks,
+        None,
+        Some(Footprint { symbolic_values: 2, ticks: 2 }),
+    )
+    .expect_err("three symbolic values against two stated");
+    assert!(e.contains("symbolic footprint exceeded"), "{e}");
+    let e = check_within(
+        "three_values_two_ticks",
+        three_values_two_ticks,
+        None,
+        Some(Footprint { symbolic_values: 3, ticks: 1 }),
+    )
+    .expect_err("two ticks against one stated");
+    assert!(e.contains("runs a tick beyond the 1"), "{e}");
 }

@@ -49,6 +49,12 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
         Ok(u) => u,
         Err(e) => return error(e),
     };
+    let Some((values, ticks)) = stated_footprint(&tokens) else {
+        return error(
+            "a #[kani::proof] harness states its symbolic footprint in its documentation: \
+             `/// Footprint: N symbolic values, T ticks` (see kani_shim::runner::Footprint)",
+        );
+    };
     let inner = Ident::new(&format!("__kani_harness_{name}"), Span::call_site());
     // Rename the harness so the test can take its name; instrument its body.
     let mut renamed: Vec<TokenTree> = Vec::with_capacity(tokens.len());
@@ -67,7 +73,8 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
         .map(|n| format!("::core::option::Option::Some({n}u32)"))
         .unwrap_or("::core::option::Option::None".into());
     let wrapper = format!(
-        "#[test] fn {name}() {{ ::kani::runner::run_with_unwind(concat!(module_path!(), \"::\", stringify!({name})), {inner}, {unwind}); }}"
+        "#[test] fn {name}() {{ ::kani::runner::run_harness(concat!(module_path!(), \"::\", stringify!({name})), {inner}, {unwind}, \
+         ::core::option::Option::Some(::kani::runner::Footprint {{ symbolic_values: {values}u64, ticks: {ticks}u64 }})); }}"
     );
     let mut out = TokenStream::new();
     out.extend("#[allow(dead_code)]".parse::<TokenStream>().unwrap_or_default());
@@ -110,6 +117,35 @@ pub fn solver(_attr: TokenStream, item: TokenStream) -> TokenStream {
 
 fn error(msg: &str) -> TokenStream {
     format!("compile_error!({msg:?});").parse().unwrap_or_default()
+}
+
+/// The footprint a harness states in its documentation: the text after
+/// `Footprint:` (doc lines joined, so it may wrap) gives `N symbolic
+/// value(s)` and `T tick(s)`.
+fn stated_footprint(tokens: &[TokenTree]) -> Option<(u64, u64)> {
+    let mut doc = String::new();
+    for w in tokens.windows(2) {
+        let (TokenTree::Punct(p), TokenTree::Group(g)) = (&w[0], &w[1]) else { continue };
+        if p.as_char() != '#' || g.delimiter() != Delimiter::Bracket {
+            continue;
+        }
+        let inner: Vec<TokenTree> = g.stream().into_iter().collect();
+        if let [TokenTree::Ident(d), TokenTree::Punct(eq), TokenTree::Literal(l)] = inner.as_slice() {
+            if d.to_string() == "doc" && eq.as_char() == '=' {
+                doc.push(' ');
+                doc.push_str(l.to_string().trim_matches('"'));
+            }
+        }
+    }
+    let text = &doc[doc.find("Footprint:")? + "Footprint:".len()..];
+    let words: Vec<&str> =
+        text.split(|c: char| c.is_whitespace() || c == ',' || c == ';' || c == '.').filter(|w| !w.is_empty()).collect();
+    let number_before = |i: usize| i.checked_sub(1).and_then(|j| words.get(j)).and_then(|w| w.parse::<u64>().ok());
+    let values = (0..words.len())
+        .find(|&i| words[i] == "symbolic" && words.get(i + 1).is_some_and(|v| v.starts_with("value")))
+        .and_then(number_before)?;
+    let ticks = (0..words.len()).find(|&i| words[i] == "tick" || words[i] == "ticks").and_then(number_before)?;
+    Some((values, ticks))
 }
 
 /// The N of a `# [kani :: unwind (N)]` among the item's outer attributes.

@@ -21,6 +21,13 @@
 //! whether its line ran or not: an assumption made the harness vacuous, a
 //! branch is unreachable, or the samples were too few.
 //!
+//! Each harness states its symbolic footprint in its documentation
+//! (`Footprint: N symbolic values, T ticks`, required by `#[kani::proof]`);
+//! every case counts the primitive values `kani::any()` draws and the
+//! ticks reported through [`runner::tick`], and one that exceeds either
+//! figure fails the harness ([`runner::Footprint`]). Draws that only steer
+//! sampling go through [`runner::hint`] and are not counted.
+//!
 //! Loop bounds are checked as Kani checks them: with `#[kani::unwind(N)]`
 //! every loop the shim can see (the harness's own body and helpers marked
 //! `#[cfg_attr(not(kani), kani::loops)]`) may run at most N - 1 iterations

@@ -54,6 +54,7 @@ pub struct Source {
 impl Source {
     /// A value in `0..domain` (`domain >= 1`).
     pub fn draw(&mut self, domain: u64) -> u64 {
+        count_symbolic_value();
         let domain = domain.max(1);
         match &mut self.mode {
             Mode::Exhaustive { prefix, trace, too_wide } => {
@@ -76,6 +77,7 @@ impl Source {
     }
     /// A value from a domain too wide to enumerate: makes the harness sampled.
     pub fn wide<T>(&mut self, f: impl FnOnce(&mut Rng) -> T) -> T {
+        count_symbolic_value();
         match &mut self.mode {
             Mode::Exhaustive { too_wide, .. } => {
                 *too_wide = true;
@@ -98,6 +100,80 @@ thread_local! {
     static LONGEST: Cell<u64> = const { Cell::new(0) };
     /// Largest bound a `needs_unwind` call asked for, this harness.
     static NEEDED: Cell<u32> = const { Cell::new(0) };
+    /// The running harness's stated footprint (None: not stated).
+    static FOOTPRINT: Cell<Option<Footprint>> = const { Cell::new(None) };
+    /// Symbolic values drawn and ticks run in the current case.
+    static CASE: Cell<Footprint> = const { Cell::new(Footprint { symbolic_values: 0, ticks: 0 }) };
+    /// The largest of each over the harness's cases.
+    static MOST: Cell<Footprint> = const { Cell::new(Footprint { symbolic_values: 0, ticks: 0 }) };
+    /// Inside [`hint`]: draws that are not symbolic values under Kani.
+    static HINTING: Cell<bool> = const { Cell::new(false) };
+}
+
+/// A harness's symbolic footprint: how many symbolic values it draws
+/// (every primitive value a `kani::any()` produces: an array of six `f32`
+/// is six, an `Option<u8>` two) and how many kernel ticks it runs (set-up
+/// included), on its longest path. Stated in the harness's documentation
+/// as `Footprint: N symbolic values, T ticks` (see `kani-shim-macros`);
+/// a case that exceeds either figure fails the harness.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Footprint {
+    /// Primitive values drawn by `kani::any()`.
+    pub symbolic_values: u64,
+    /// Kernel ticks run ([`tick`]).
+    pub ticks: u64,
+}
+
+fn count_symbolic_value() {
+    if HINTING.with(Cell::get) {
+        return;
+    }
+    let c = CASE.with(|c| {
+        let mut f = c.get();
+        f.symbolic_values += 1;
+        c.set(f);
+        f
+    });
+    if let Some(b) = FOOTPRINT.with(Cell::get) {
+        if c.symbolic_values > b.symbolic_values {
+            panic!(
+                "symbolic footprint exceeded: this case draws a symbolic value beyond the {} its footprint states",
+                b.symbolic_values
+            );
+        }
+    }
+}
+
+/// One kernel tick of the running harness (the proofs crate calls it
+/// from every tick it runs), counted against its stated footprint.
+pub fn tick() {
+    let c = CASE.with(|c| {
+        let mut f = c.get();
+        f.ticks += 1;
+        c.set(f);
+        f
+    });
+    if let Some(b) = FOOTPRINT.with(Cell::get) {
+        if c.ticks > b.ticks {
+            panic!("symbolic footprint exceeded: this case runs a tick beyond the {} its footprint states", b.ticks);
+        }
+    }
+}
+
+/// A value drawn only to steer the shim's sampling (for example, how
+/// often a draw lands in a typical range): written in `#[cfg(not(kani))]`
+/// code, it is no symbolic value under Kani and is not counted in the
+/// footprint.
+pub fn hint<T: crate::Arbitrary>() -> T {
+    struct Reset;
+    impl Drop for Reset {
+        fn drop(&mut self) {
+            HINTING.with(|h| h.set(false));
+        }
+    }
+    HINTING.with(|h| h.set(true));
+    let _reset = Reset;
+    with_source(T::any_from)
 }
 
 /// One entry into an instrumented loop (the `#[kani::proof]` and
@@ -207,7 +283,16 @@ enum Outcome {
 
 fn run_case(harness: fn(), mode: Mode) -> (Result<Outcome, Box<dyn std::any::Any + Send>>, Mode) {
     SOURCE.with(|s| *s.borrow_mut() = Some(Source { mode }));
+    CASE.with(|c| c.set(Footprint::default()));
     let r = panic::catch_unwind(AssertUnwindSafe(harness));
+    let case = CASE.with(Cell::get);
+    MOST.with(|m| {
+        let most = m.get();
+        m.set(Footprint {
+            symbolic_values: most.symbolic_values.max(case.symbolic_values),
+            ticks: most.ticks.max(case.ticks),
+        })
+    });
     let src = SOURCE.with(|s| s.borrow_mut().take());
     let mode = src.map(|s| s.mode).unwrap_or(Mode::Sampled { rng: Rng(0) });
     let r = match r {
@@ -239,26 +324,42 @@ pub struct Report {
     pub longest_loop: u64,
     /// Largest unwind the uninstrumented loops asked for (`needs_unwind`).
     pub needed_unwind: u32,
+    /// The largest footprint of any case (symbolic values, ticks).
+    pub footprint: Footprint,
 }
 
-/// Runs a harness without a declared unwind bound.
+/// Runs a harness without a declared unwind bound or footprint.
 pub fn run(name: &str, harness: fn()) {
-    run_with_unwind(name, harness, None);
+    run_harness(name, harness, None, None);
 }
 
 /// Runs a harness whose loops may run at most `unwind - 1` iterations per
-/// entry; panics (failing the test) on a counterexample, an exceeded loop
-/// bound or an unreached cover.
-pub fn run_with_unwind(name: &str, harness: fn(), unwind: Option<u32>) {
-    if let Err(e) = check(name, harness, unwind) {
+/// entry and whose cases stay within `footprint`; panics (failing the
+/// test) on a counterexample, an exceeded loop bound or footprint, or an
+/// unreached cover.
+pub fn run_harness(name: &str, harness: fn(), unwind: Option<u32>, footprint: Option<Footprint>) {
+    if let Err(e) = check_within(name, harness, unwind, footprint) {
         panic!("{e}");
     }
 }
 
-/// Runs a harness and reports, or says why it failed (counterexample,
-/// loop bound exceeded, cover never reached, every case discarded).
+/// [`check_within`] with no stated footprint.
 pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, String> {
+    check_within(name, harness, unwind, None)
+}
+
+/// Runs a harness and reports, or says why it failed (counterexample,
+/// loop bound or footprint exceeded, cover never reached, every case
+/// discarded).
+pub fn check_within(
+    name: &str,
+    harness: fn(),
+    unwind: Option<u32>,
+    footprint: Option<Footprint>,
+) -> Result<Report, String> {
     install_hook();
+    FOOTPRINT.with(|f| f.set(footprint));
+    MOST.with(|m| m.set(Footprint::default()));
     COVERS.with(|c| c.borrow_mut().clear());
     UNWIND.with(|u| u.set(unwind));
     LONGEST.with(|l| l.set(0));
@@ -271,6 +372,7 @@ pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, S
         }
     }));
     UNWIND.with(|u| u.set(None));
+    FOOTPRINT.with(|f| f.set(None));
     let report = report.map_err(|p| {
         let msg = p
             .downcast_ref::<String>()
@@ -283,19 +385,27 @@ pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, S
     let hit = covers.values().filter(|(_, h)| *h).count();
     let longest = LONGEST.with(Cell::get);
     let needed = NEEDED.with(Cell::get);
-    let report = Report { covers: (hit, covers.len()), longest_loop: longest, needed_unwind: needed, ..report };
+    let most = MOST.with(Cell::get);
+    let report =
+        Report { covers: (hit, covers.len()), longest_loop: longest, needed_unwind: needed, footprint: most, ..report };
+    let stated = match footprint {
+        Some(f) => format!("footprint {} symbolic values, {} ticks stated", f.symbolic_values, f.ticks),
+        None => "no footprint stated".into(),
+    };
     let seed = report.seed.map(|s| format!(", seed {s:#x}")).unwrap_or_default();
     let bound = match unwind {
         Some(n) => format!("unwind {n}"),
         None => "no unwind declared".into(),
     };
     let line = format!(
-        "kani-shim: {name}: {}, {} cases ({} discarded by assume){seed}, covers {}/{}, {bound}: longest instrumented loop {longest} iterations, uninstrumented loops need unwind {needed}",
+        "kani-shim: {name}: {}, {} cases ({} discarded by assume){seed}, covers {}/{}, {bound}: longest instrumented loop {longest} iterations, uninstrumented loops need unwind {needed}; {stated}: at most {} symbolic values and {} ticks in a case",
         report.kind,
         report.cases,
         report.discarded,
         hit,
-        covers.len()
+        covers.len(),
+        most.symbolic_values,
+        most.ticks
     );
     println!("{line}");
     if let Ok(path) = std::env::var("KANI_SHIM_REPORT") {
@@ -303,11 +413,13 @@ pub fn check(name: &str, harness: fn(), unwind: Option<u32>) -> Result<Report, S
             let u = unwind.map(|n| n.to_string()).unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 f,
-                "{name}\t{}\t{}\t{}\t{hit}/{}\t{u}\t{longest}\t{needed}",
+                "{name}\t{}\t{}\t{}\t{hit}/{}\t{u}\t{longest}\t{needed}\t{}\t{}",
                 report.kind,
                 report.cases,
                 report.discarded,
-                covers.len()
+                covers.len(),
+                most.symbolic_values,
+                most.ticks
             );
         }
     }
@@ -367,6 +479,7 @@ fn exhaustive(name: &str, harness: fn()) -> Option<Report> {
                         seed: None,
                         longest_loop: 0,
                         needed_unwind: 0,
+                        footprint: Footprint::default(),
                     })
                 }
             }
@@ -391,5 +504,14 @@ fn sampled(name: &str, harness: fn()) -> Report {
             }
         }
     }
-    Report { kind: "sampled", cases, discarded, covers: (0, 0), seed: Some(seed), longest_loop: 0, needed_unwind: 0 }
+    Report {
+        kind: "sampled",
+        cases,
+        discarded,
+        covers: (0, 0),
+        seed: Some(seed),
+        longest_loop: 0,
+        needed_unwind: 0,
+        footprint: Footprint::default(),
+    }
 }
