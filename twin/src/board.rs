@@ -506,7 +506,7 @@ impl Board {
         if to_drivers && frame.bits == 40 {
             for i in 0..6 {
                 if !self.tmc_cs_level(i) && self.tmc[i].present {
-                    let o = self.tmc[i].shift(frame.data);
+                    let o = self.tmc[i].shift(frame.data, self.now);
                     out = Some(out.map_or(o, |a| a & o));
                 }
             }

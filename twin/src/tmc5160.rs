@@ -46,9 +46,18 @@ pub struct Tmc5160 {
     received: Option<u64>,
     /// The data the next answer carries.
     out_data: u32,
+    /// The register `out_data` was read from.
+    last_read: Option<u8>,
     /// Datagrams acted on (chip select rose after a complete datagram).
     pub datagrams: u64,
+    /// When (cycles) an answer first carried a `DRV_STATUS` fault flag
+    /// (ot, s2g, s2vs, ol) in its data: the image collects it in the next
+    /// tick (test instrumentation, not hardware).
+    pub fault_answer_at: Option<u64>,
 }
+
+/// `DRV_STATUS` fault flags: ot, s2ga/b, s2vsa/b, ola/b.
+pub const DRV_FAULT_FLAGS: u32 = (1 << 25) | (3 << 27) | (3 << 12) | (3 << 29);
 
 impl Default for Tmc5160 {
     fn default() -> Self {
@@ -61,7 +70,9 @@ impl Default for Tmc5160 {
             drv_status: (1 << 31) | (16 << 16),
             received: None,
             out_data: 0,
+            last_read: None,
             datagrams: 0,
+            fault_answer_at: None,
         }
     }
 }
@@ -89,10 +100,13 @@ impl Tmc5160 {
         s
     }
 
-    /// A whole 40-bit datagram shifted in while selected; returns the 40
-    /// bits shifted out (status byte, then the previous read's data).
-    pub fn shift(&mut self, bits_in: u64) -> u64 {
+    /// A whole 40-bit datagram shifted in while selected at `now`; returns
+    /// the 40 bits shifted out (status byte, then the previous read's data).
+    pub fn shift(&mut self, bits_in: u64, now: u64) -> u64 {
         self.received = Some(bits_in);
+        if self.out_data & DRV_FAULT_FLAGS != 0 && self.last_read == Some(0x6F) && self.fault_answer_at.is_none() {
+            self.fault_answer_at = Some(now);
+        }
         (u64::from(self.status()) << 32) | u64::from(self.out_data)
     }
 
@@ -108,6 +122,7 @@ impl Tmc5160 {
             }
         } else {
             self.out_data = self.reg(addr & 0x7F);
+            self.last_read = Some(addr & 0x7F);
         }
     }
 
@@ -139,18 +154,18 @@ mod tests {
     #[test]
     fn read_data_comes_with_the_next_datagram() {
         let mut t = Tmc5160::default();
-        let a = t.shift(0x04_0000_0000);
+        let a = t.shift(0x04_0000_0000, 0);
         assert_eq!(a >> 32, 0x09, "reset flag and standstill");
         t.deselect();
-        let b = t.shift(0x01_0000_0000);
+        let b = t.shift(0x01_0000_0000, 0);
         assert_eq!(b as u32, 0x3000_0050, "IOIN");
         t.deselect();
-        let c = t.shift(0x81_0000_0007);
+        let c = t.shift(0x81_0000_0007, 0);
         assert_eq!(c as u32, GSTAT_RESET, "GSTAT");
         t.deselect();
         assert_eq!(t.gstat, 0, "cleared by the write");
         // a datagram not followed by a deselect is not acted on
-        let _ = t.shift(0x6F_0000_0000);
+        let _ = t.shift(0x6F_0000_0000, 0);
         assert_eq!(t.datagrams, 3);
     }
 }
