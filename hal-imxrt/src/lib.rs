@@ -17,7 +17,9 @@
 //!   [`pure::march`] (the March C- RAM test),
 //!   [`pure::uart`] (LPUART OSR/SBR search), [`pure::step`] (step rate ->
 //!   FlexPWM period/prescaler), [`pure::pins`] (Teensy 4.1 pin database and
-//!   the compile-time-checked pin map), [`pure::debounce`] (limit switches).
+//!   the compile-time-checked pin map), [`pure::debounce`] (limit switches),
+//!   [`pure::tmc5160`] (the TMC5160 SPI datagram, its decoding, the boot
+//!   check and the run-time poll; `periph::lpspi` drives LPSPI3 for it).
 //! * `periph` — compiled **only when `target_os = "none"`** (i.e. for
 //!   `thumbv7em-none-eabihf`); no feature flag, so a host build can never
 //!   pull in register code by accident. Thin drivers that own their
