@@ -186,9 +186,10 @@ pub fn boot_fault(panic_marker: u32, watchdog_reset: bool, encoder_fail_mask: u8
 }
 
 /// The boot fault as one byte for the boot log line (no `core::fmt` in the
-/// image): 0 none, the [`code`] of a self-test fault, `0xE0 | axis` a
-/// driver's own diagnostic (the TMC5160 check), `0xF0 | axis` a refused step
-/// rate and `0xFF` a tick overrun (the last two never occur at boot).
+/// image): 0 none, the [`code`] of a self-test fault; `0xE0 | axis` a
+/// driver's own diagnostic, `0xF0 | axis` a refused step rate and `0xFF` a
+/// tick overrun never occur at boot (the TMC5160 boot check's finding
+/// reaches the kernel through the first tick, not through this fault).
 pub const fn boot_fault_log_code(fault: Option<HardwareFault>) -> u8 {
     match fault {
         None => 0,
@@ -336,6 +337,31 @@ mod tests {
         assert_eq!(boot_fault_log_code(boot_fault(0, false, 0b101)), 0x45);
         assert_eq!(boot_fault_log_code(Some(HardwareFault::Driver { axis: 3 })), 0xF3);
         assert_eq!(boot_fault_log_code(Some(HardwareFault::TickOverrun)), 0xFF);
+        let diag = HardwareFault::DriverDiagnostic { axis: 2, cause: kernel::DriverCause::OpenLoad };
+        assert_eq!(boot_fault_log_code(Some(diag)), 0xE2);
+    }
+
+    /// Each TMC5160 finding has its own cause in the kernel (and so its own
+    /// token on the wire).
+    #[test]
+    fn every_driver_finding_maps_to_its_own_cause() {
+        use hal_imxrt::pure::tmc5160::Finding;
+        let all = [
+            Finding::Missing,
+            Finding::WrongVersion,
+            Finding::Reset,
+            Finding::DriverError,
+            Finding::ChargePump,
+            Finding::Overtemperature,
+            Finding::ShortToGround,
+            Finding::ShortToSupply,
+            Finding::OpenLoad,
+        ];
+        let names: std::collections::BTreeSet<&str> =
+            all.iter().map(|&f| protocol::report::driver_cause_name(driver_cause(f))).collect();
+        assert_eq!(names.len(), all.len(), "{names:?}");
+        assert_eq!(driver_cause(Finding::Overtemperature), kernel::DriverCause::Overtemperature);
+        assert_eq!(driver_cause(Finding::Missing), kernel::DriverCause::Missing);
     }
 
     #[test]
