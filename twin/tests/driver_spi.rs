@@ -93,6 +93,9 @@ fn driver_spi_boot_check_names_a_missing_wrong_or_failed_driver() {
         let faults: Vec<&String> = l.iter().filter(|s| s.starts_with("FAULT")).collect();
         assert_eq!(faults.first().map(|s| s.as_str()), Some(line.as_str()), "{l:?}");
         enable_refused(&mut t, at, reason);
+        // reported on every tick, latched once: one fault line
+        let l = lines(&t);
+        assert_eq!(l.iter().filter(|s| **s == line).count(), 1, "{l:?}");
     }
 }
 
@@ -158,6 +161,36 @@ fn driver_spi_running_drivers_report_overtemperature_shorts_and_open_load() {
             all.join(", ")
         );
         assert!(worst_det <= bound_ms, "{reason}: detected {worst_det:.2} ms after the injection");
+    }
+}
+
+/// While running, J2 stops answering (its supply or its SDO lost: the line
+/// reads the pull-up) and, on another run, J5 resets (a supply dip: its
+/// `GSTAT.reset` set again, shown in the status byte of every answer).
+/// Each is named within one turn of the poll plus a tick (7 ms); the line's
+/// first byte, measured here, bounds the detection from above and may wait
+/// up to 5 ms more behind a feedback line on the UART.
+#[test]
+fn driver_spi_a_driver_lost_or_reset_while_running_is_named() {
+    type Change = fn(&mut twin::tmc5160::Tmc5160);
+    let cases: [(usize, Change, &str); 2] = [
+        (1, |d| d.present = false, "DRIVER_DIAG J2 MISSING"),
+        (4, |d| d.gstat |= twin::tmc5160::GSTAT_RESET, "DRIVER_DIAG J5 RESET"),
+    ];
+    for (axis, change, reason) in cases {
+        let mut t = boot();
+        run(&mut t, 200);
+        assert!(!lines(&t).iter().any(|s| s.contains("FAULT")), "{:?}", lines(&t));
+        let injected = t.now();
+        change(&mut t.board_mut().tmc[axis]);
+        let line = format!("FAULT HARDWARE {reason}");
+        let at = seen_at(&mut t, &line, 200, 300);
+        let Some(at) = at else { panic!("{reason}: no fault line within 100 ms: {:?}", lines(&t)) };
+        let first = first_byte_at(&t, &line).expect("first byte");
+        let ms = (first - injected) as f64 / MS as f64;
+        println!("driver SPI run time: {reason}: first byte of the fault line {ms:.2} ms after the change");
+        assert!(ms <= 7.0 + 5.0, "{reason}: {ms:.2} ms");
+        enable_refused(&mut t, at, reason);
     }
 }
 
