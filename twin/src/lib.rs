@@ -31,13 +31,20 @@ pub const MS: u64 = CPU_HZ / 1000;
 /// repository root.
 pub const IMAGE: &str = "target/twin/parol6-serial1.elf";
 
-/// Load the Serial1 image (env `TWIN_ELF` overrides the path).
-pub fn load_image() -> Result<Vec<u8>, String> {
-    let path = std::env::var("TWIN_ELF").unwrap_or_else(|_| {
+/// Load an image built by `twin/build-image.sh`: the file named by the
+/// environment variable `env` if it is set, else `image` (relative to the
+/// repository root).
+fn load_from(env: &str, image: &str) -> Result<Vec<u8>, String> {
+    let path = std::env::var(env).unwrap_or_else(|_| {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        root.join(IMAGE).to_string_lossy().into_owned()
+        root.join(image).to_string_lossy().into_owned()
     });
     std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+}
+
+/// Load the Serial1 image (env `TWIN_ELF` overrides the path).
+pub fn load_image() -> Result<Vec<u8>, String> {
+    load_from("TWIN_ELF", IMAGE)
 }
 
 /// Path of the Serial1 image with the drivers' enable output (firmware
@@ -47,24 +54,16 @@ pub const IMAGE_DRIVER_ENABLE: &str = "target/twin/parol6-serial1-driver-enable.
 /// Load the driver-enable image (env `TWIN_ELF_DRIVER_ENABLE` overrides the
 /// path).
 pub fn load_driver_enable_image() -> Result<Vec<u8>, String> {
-    let path = std::env::var("TWIN_ELF_DRIVER_ENABLE").unwrap_or_else(|_| {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        root.join(IMAGE_DRIVER_ENABLE).to_string_lossy().into_owned()
-    });
-    std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+    load_from("TWIN_ELF_DRIVER_ENABLE", IMAGE_DRIVER_ENABLE)
 }
 
 /// The Serial1 image built with the TMC5160 link (firmware feature
-/// `tmc5160-spi`).
+/// `tmc5160-spi`), also built by `twin/build-image.sh`.
 pub const IMAGE_TMC5160: &str = "target/twin/parol6-serial1-tmc5160.elf";
 
 /// Load [`IMAGE_TMC5160`] (env `TWIN_ELF_TMC5160` overrides the path).
 pub fn load_tmc5160_image() -> Result<Vec<u8>, String> {
-    let path = std::env::var("TWIN_ELF_TMC5160").unwrap_or_else(|_| {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        root.join(IMAGE_TMC5160).to_string_lossy().into_owned()
-    });
-    std::fs::read(&path).map_err(|e| format!("{path}: {e} (build it with twin/build-image.sh)"))
+    load_from("TWIN_ELF_TMC5160", IMAGE_TMC5160)
 }
 
 /// Joint angles the tests and the CLI start from (rad): inside every
