@@ -19,6 +19,10 @@
 //! the_invariant_*`, an inductive argument that it holds in every
 //! reachable state of the modes drawn.
 //!
+//! The `from_one_axis_*` harnesses are the same steps with one axis drawn
+//! (its index symbolic too) and the other five at rest (see `Scope`):
+//! about a third of the symbolic values, for Kani.
+//!
 //! Configuration: the real `PAROL6_VALIDATED` (nothing is replayed, so no
 //! relaxation is needed). Not drawn: Boot and Homing (their state is a run
 //! in progress; the replayed harnesses and the model cover them).
@@ -93,10 +97,64 @@ enum Draw {
     Latched,
 }
 
-/// Any state of the kind `draw` that the invariant admits, built by
-/// `Kernel::from_spec`, and its authority.
+/// What is drawn symbolically: the whole state (every axis), or one axis
+/// (its index symbolic too) with the other five at rest where their
+/// encoders read, their readings unchanged and any target leaving them
+/// there. The one-axis harnesses are the whole-state ones sized for Kani
+/// (about a third of the symbolic values); they do not cover other axes
+/// in motion at the same time, which only the whole-state harnesses do.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Scope {
+    Whole,
+    OneAxis(usize),
+}
+
+impl Scope {
+    fn symbolic(self, i: usize) -> bool {
+        match self {
+            Scope::Whole => true,
+            Scope::OneAxis(a) => a == i,
+        }
+    }
+}
+
+/// A symbolic axis index for a one-axis draw.
 #[cfg_attr(not(kani), kani::loops)]
-fn any_state<S: Sym>(draw: Draw) -> (Kernel<S>, Authority, StateSpec<S>) {
+fn one_axis() -> Scope {
+    let a = usize::from(kani::any::<u8>() % AXES as u8);
+    kani::cover!(a == AXES - 1, "the last axis can be the symbolic one");
+    Scope::OneAxis(a)
+}
+
+/// An axis at rest where its encoder reads (count 2048), in the middle of
+/// its limits: no cause for a fault and nothing to move.
+fn at_rest<S: Scalar>(i: usize) -> AxisSpec<S> {
+    let j = &PAROL6.joints[i];
+    let count = 2048u16;
+    let x = S::from_f32((j.limit_min + j.limit_max) / 2.0);
+    let sign = if j.encoder_reversed { -1.0 } else { 1.0 };
+    let measured = (f64::from(count) * j.rad_per_count() * sign) as f32;
+    AxisSpec {
+        count,
+        zero: x.minus(S::from_f32(measured)),
+        x,
+        v: S::ZERO,
+        setpoint: x,
+        target: x,
+        sp_velocity: S::ZERO,
+        speed: S::ZERO,
+        last_out: S::ZERO,
+        path: x,
+        fe_count: 0,
+        invalid: 0,
+    }
+}
+
+/// Any state of the kind `draw` that the invariant admits, built by
+/// `Kernel::from_spec`, and its authority; `scope` says which axes are
+/// drawn.
+#[cfg_attr(not(kani), kani::loops)]
+fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSpec<S>) {
     kernel_loops();
     let n = stop_ticks();
     // Any tick of the ramp; for sampling, half of the draws at its last two.
@@ -106,7 +164,9 @@ fn any_state<S: Sym>(draw: Draw) -> (Kernel<S>, Authority, StateSpec<S>) {
         Draw::Operational => SpecMode::Operational,
         Draw::Stopping => {
             for i in 0..AXES {
-                v0[i] = any_between(vmax::<S>(i).neg(), vmax(i));
+                if scope.symbolic(i) {
+                    v0[i] = any_between(vmax::<S>(i).neg(), vmax(i));
+                }
             }
             SpecMode::Stopping { k, v0, track: kani::any() }
         }
@@ -138,6 +198,10 @@ fn any_state<S: Sym>(draw: Draw) -> (Kernel<S>, Authority, StateSpec<S>) {
         invalid: 0,
     }; AXES];
     for i in 0..AXES {
+        if !scope.symbolic(i) {
+            axes[i] = at_rest(i);
+            continue;
+        }
         let vm = vmax::<S>(i);
         let a = &mut axes[i];
         a.count = kani::any::<u16>() % 4096;
@@ -194,11 +258,13 @@ fn any_state<S: Sym>(draw: Draw) -> (Kernel<S>, Authority, StateSpec<S>) {
 /// sampling, half of the draws read every encoder within a few counts of
 /// its last reading; symbolically this is still any count.)
 #[cfg_attr(not(kani), kani::loops)]
-fn any_sense<S>(spec: &StateSpec<S>) -> Sense {
+fn any_sense<S>(spec: &StateSpec<S>, scope: Scope) -> Sense {
     let mut encoders = [EncoderSample::Lost; AXES];
     let near: bool = kani::any();
-    for (e, a) in encoders.iter_mut().zip(spec.axes.iter()) {
-        if near {
+    for (i, (e, a)) in encoders.iter_mut().zip(spec.axes.iter()).enumerate() {
+        if !scope.symbolic(i) {
+            *e = EncoderSample::Count(a.count);
+        } else if near {
             let d = i32::from(kani::any::<i8>() % 8);
             *e = EncoderSample::Count((i32::from(a.count) + d).rem_euclid(4096) as u16);
         } else if !kani::any::<u8>().is_multiple_of(8) {
@@ -216,10 +282,25 @@ fn any_sense<S>(spec: &StateSpec<S>) -> Sense {
 
 /// Any request: none, any motion target, `<HOME>`, `<HOMEn>`, or an
 /// `<ENABLE>` minted by this kernel's authority.
-fn any_request<S: Sym>(auth: &Authority) -> Option<Request<S>> {
+fn any_request<S: Sym>(auth: &Authority, spec: &StateSpec<S>, scope: Scope) -> Option<Request<S>> {
     match kani::any::<u8>() % 5 {
         0 => None,
-        1 => Some(Request::Motion(any_target::<S>())),
+        1 => Some(Request::Motion(match scope {
+            Scope::Whole => any_target::<S>(),
+            Scope::OneAxis(a) => {
+                // The other axes' targets where they are.
+                let mut t = kernel::MotionTarget {
+                    position: spec.axes.map(|x| x.x),
+                    velocity: [S::ZERO; AXES],
+                    kind: kernel::MotionKind::Stream,
+                };
+                let (lo, hi) = crate::numeric::widened_limits::<S>(a);
+                t.position[a] = crate::numeric::any_mostly_in(lo, hi);
+                let v = vmax::<S>(a);
+                t.velocity[a] = crate::numeric::any_mostly_in(v.neg(), v);
+                t
+            }
+        })),
         2 => Some(Request::Home),
         3 => Some(Request::HomeJoint(kani::any::<u8>() % 8)),
         _ => Some(Request::Enable(auth.enable())),
@@ -244,13 +325,13 @@ struct Reached {
 /// One tick from any admitted state of the kind `draw`; asserts what every
 /// tick guarantees, and returns the draw-specific antecedents it reached.
 #[cfg_attr(not(kani), kani::loops)]
-fn step<S: Sym>(draw: Draw) -> Reached {
-    let (mut k, auth, spec) = any_state::<S>(draw);
+fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
+    let (mut k, auth, spec) = any_state::<S>(draw, scope);
     let before = k.state();
     let homed = k.homed();
     let prev = k.last_output();
-    let sense = any_sense(&spec);
-    let req = any_request::<S>(&auth);
+    let sense = any_sense(&spec, scope);
+    let req = any_request::<S>(&auth, &spec, scope);
     let enable = matches!(req, Some(Request::Enable(_)));
     let home = matches!(req, Some(Request::Home | Request::HomeJoint(_)));
     crate::setup::count_tick();
@@ -349,35 +430,35 @@ fn initial_state_satisfies_the_invariant() {
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_operational_state_f32() {
-    let r = step::<f32>(Draw::Operational);
+    let r = step::<f32>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
 /// Footprint: 113 symbolic values, 1 tick (the state (83), sensors (17), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_operational_state_fx() {
-    let r = step::<kernel::Fx>(Draw::Operational);
+    let r = step::<kernel::Fx>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
 /// Footprint: 120 symbolic values, 1 tick (the state (90), sensors (17), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_stopping_state_f32() {
-    let r = step::<f32>(Draw::Stopping);
+    let r = step::<f32>(Draw::Stopping, Scope::Whole);
     kani::cover!(r.ramp_end, "the ramp's last tick");
 }
 /// Footprint: 120 symbolic values, 1 tick (the state (90), sensors (17), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_stopping_state_fx() {
-    let r = step::<kernel::Fx>(Draw::Stopping);
+    let r = step::<kernel::Fx>(Draw::Stopping, Scope::Whole);
     kani::cover!(r.ramp_end, "the ramp's last tick");
 }
 /// Footprint: 110 symbolic values, 1 tick (the state (80), sensors (17), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_latched_or_unhomed_state_f32() {
-    let r = step::<f32>(Draw::Latched);
+    let r = step::<f32>(Draw::Latched, Scope::Whole);
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
 }
@@ -385,7 +466,60 @@ fn from_any_latched_or_unhomed_state_f32() {
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_latched_or_unhomed_state_fx() {
-    let r = step::<kernel::Fx>(Draw::Latched);
+    let r = step::<kernel::Fx>(Draw::Latched, Scope::Whole);
+    kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
+    kani::cover!(r.latch_cleared, "an enable clears a latch");
+}
+
+// The same steps with one axis symbolic (see `Scope`): a symbolic axis
+// index, that axis's state, reading and target, and the shared state
+// (mode, counters, switches, hardware fault, link, request kind).
+
+/// Footprint: 34 symbolic values, 1 tick (the axis index, the shared
+/// state (11), the axis (12), sensors (7), request (3); `Scope::OneAxis`).
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_one_axis_operational_state_f32() {
+    let r = step::<f32>(Draw::Operational, one_axis());
+    kani::cover!(r.output_changed, "an operational tick that changes an output");
+}
+/// Footprint: 34 symbolic values, 1 tick (as the f32 harness).
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_one_axis_operational_state_fx() {
+    let r = step::<kernel::Fx>(Draw::Operational, one_axis());
+    kani::cover!(r.output_changed, "an operational tick that changes an output");
+}
+/// Footprint: 36 symbolic values, 1 tick (the operational draw, the
+/// axis's ramp start speed and the track flag).
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_one_axis_stopping_state_f32() {
+    let r = step::<f32>(Draw::Stopping, one_axis());
+    kani::cover!(r.ramp_end, "the ramp's last tick");
+}
+/// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_one_axis_stopping_state_fx() {
+    let r = step::<kernel::Fx>(Draw::Stopping, one_axis());
+    kani::cover!(r.ramp_end, "the ramp's last tick");
+}
+/// Footprint: 36 symbolic values, 1 tick (the shared state, the mode and
+/// reason, the homed mask (14), the axis without a last output (11),
+/// sensors (7), request (3), the axis index).
+#[kani::proof]
+#[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
+fn from_one_axis_latched_or_unhomed_state_f32() {
+    let r = step::<f32>(Draw::Latched, one_axis());
+    kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
+    kani::cover!(r.latch_cleared, "an enable clears a latch");
+}
+/// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn from_one_axis_latched_or_unhomed_state_fx() {
+    let r = step::<kernel::Fx>(Draw::Latched, one_axis());
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
 }
