@@ -10,6 +10,17 @@
 //! the datagram). The tick starts one and collects it on the next tick, so
 //! the 20 us on the wire never hold up the CPU; the boot check waits for
 //! each ([`TmcLink::transfer`], bounded).
+//!
+//! Hand-written over `imxrt-ral` although `imxrt-hal`'s `Lpspi` (in the
+//! image through teensy4-bsp) offers the same FIFO access
+//! (`without_pins`, `enqueue_transaction`, `enqueue_data`, `read_data`):
+//! this crate drives every peripheral through `imxrt-ral` with the numbers
+//! of `pure`, and the SCK divider here is a compile-time constant checked
+//! to divide the clock exactly (`pure::tmc5160::SCKDIV`), where
+//! `imxrt-hal` derives its divider at run time. The 40-bit frame's split
+//! into FIFO words (32 bits, then the remaining 8) is the LPSPI's rule for
+//! frames over 32 bits, the one `imxrt-hal`'s `Transaction` also states
+//! (its last word must hold at least 2 bits).
 
 use crate::periph::cycles::CycleCounter;
 use crate::periph::gpio::Gpios;
