@@ -91,6 +91,14 @@ fn operational_tick_is_safe_fx() {
 /// assertion sees an axis that depends on another.
 const POWER_ON_TICKS: u32 = 10;
 
+/// No induction replaces these 10 ticks yet: the one-step lemmas
+/// (`state_props`: SR-2, 4, 5, 7, 9, 10, 21, 25 and the invariant from
+/// every admitted Unhomed, Operational, Stopping, SoftEstop and Fault
+/// state) assert neither the refusal of motion nor the homing order, and
+/// draw no Boot or Homing state. Those rest on this run: every tick of it
+/// checked by the monitor, sampled under the shim, bounded to 10 ticks
+/// under Kani.
+///
 /// SR-1, SR-13, SR-15, SR-16: from power-on, any sequence of
 /// [`POWER_ON_TICKS`] requests and sensors: nothing moves unhomed; motion is
 /// refused outside Operational; in homing, only axes whose dependencies are
@@ -343,6 +351,21 @@ fn homing_is_repeatable_fx() {
 /// (measured: J1 crosses 3.75 rad/s in about 15 ticks at 55 counts/tick).
 const RUNAWAY_TICKS: u32 = 30;
 
+/// Induction beside the 30 ticks. The assertion ("a tick whose estimate
+/// is above the runaway threshold ends in Fault") is the SR-9 clause of
+/// the one-step lemmas `from_any_operational_state_*` and
+/// `from_one_axis_operational_state_*` (`state_props`): it holds for one
+/// tick from every state the kernel's invariant admits, with any sensors
+/// and request. The invariant holds initially
+/// (`initial_state_satisfies_the_invariant`) and after every such tick
+/// (each lemma asserts it again); the ticks from Boot and Homing, which
+/// no lemma draws, assert it on every replayed tick (`setup::Checked`,
+/// sampled). So the assertion holds on every tick of every run of the
+/// real configuration (the lemmas use `PAROL6`), not only the 30 here. What this run adds is reachability: the covers (the
+/// threshold is reached under a plausible constant step, and the fault
+/// is a runaway), for which Kani needs one path; its symbolic step makes
+/// Kani check the assertion on all of them as well.
+///
 /// SR-9: one joint's encoder advances by a constant step per tick, any step
 /// up to the plausibility window (so the estimate follows it rather than
 /// faulting as a jump): in every tick whose estimated speed is above the
