@@ -91,13 +91,13 @@ fn operational_tick_is_safe_fx() {
 /// assertion sees an axis that depends on another.
 const POWER_ON_TICKS: u32 = 10;
 
-/// No induction replaces these 10 ticks yet: the one-step lemmas
-/// (`state_props`: SR-2, 4, 5, 7, 9, 10, 21, 25 and the invariant from
-/// every admitted Unhomed, Operational, Stopping, SoftEstop and Fault
-/// state) assert neither the refusal of motion nor the homing order, and
-/// draw no Boot or Homing state. Those rest on this run: every tick of it
-/// checked by the monitor, sampled under the shim, bounded to 10 ticks
-/// under Kani.
+/// Induction beside the 10 ticks, and where it stops: the one-step lemmas
+/// (`state_props`: from every admitted Unhomed, Operational, Stopping,
+/// SoftEstop and Fault state) assert the refusal of motion outside
+/// Operational (SR-15), and the invariant carries them over ticks (see
+/// `runaway`); they assert no homing order and draw no Boot or Homing
+/// state. Those rest on this run: every tick of it checked by the
+/// monitor, sampled under the shim, bounded to 10 ticks under Kani.
 ///
 /// SR-1, SR-13, SR-15, SR-16: from power-on, any sequence of
 /// [`POWER_ON_TICKS`] requests and sensors: nothing moves unhomed; motion is

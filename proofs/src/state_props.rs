@@ -34,8 +34,8 @@ use crate::numeric::any_target;
 use crate::setup::{kernel_loops, Sym};
 use kernel::config::{ms_to_ticks, AXES, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
 use kernel::{
-    Authority, AxisSpec, EncoderSample, FaultReason, HardwareFault, Kernel, Request, Scalar, Sense, SpecMode, State,
-    StateSpec,
+    Authority, AxisSpec, EncoderSample, Event, FaultReason, HardwareFault, Kernel, Request, RequestKind, Scalar, Sense,
+    SpecMode, State, StateSpec,
 };
 
 /// Ticks of the soft-stop ramp (`Params::new`).
@@ -320,6 +320,8 @@ struct Reached {
     output_changed: bool,
     /// The soft-stop ramp's last tick (SR-7's antecedent).
     ramp_end: bool,
+    /// A motion request outside Operational (SR-15's antecedent).
+    motion_outside: bool,
 }
 
 /// One tick from any admitted state of the kind `draw`; asserts what every
@@ -334,6 +336,7 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     let req = any_request::<S>(&auth, &spec, scope);
     let enable = matches!(req, Some(Request::Enable(_)));
     let home = matches!(req, Some(Request::Home | Request::HomeJoint(_)));
+    let motion = matches!(req, Some(Request::Motion(_)));
     crate::setup::count_tick();
     let o = k.tick(&sense, req);
     let after = o.status.state;
@@ -342,6 +345,13 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     // SR-2: every output finite and within its joint's speed limit.
     for i in 0..AXES {
         assert!(out[i].is_finite() && out[i].abs() <= vmax::<S>(i));
+    }
+    // SR-15: motion is refused outside Operational (the same check the
+    // multi-tick `nothing_moves_*` makes from power-on, here from every
+    // admitted state of the drawn modes).
+    let outside = before != State::Operational;
+    if motion && outside {
+        assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. })));
     }
     // SR-4, SR-5: a fault zeroes every axis in the same tick, and is latched
     // with a reason.
@@ -380,6 +390,7 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
         latch_cleared: latched && enable && !matches!(after, State::SoftEstop | State::Fault),
         output_changed: false,
         ramp_end: false,
+        motion_outside: motion && outside,
     };
     if latched && !enable {
         assert!(after == before || after == State::Fault);
@@ -446,6 +457,7 @@ fn from_any_operational_state_fx() {
 fn from_any_stopping_state_f32() {
     let r = step::<f32>(Draw::Stopping, Scope::Whole);
     kani::cover!(r.ramp_end, "the ramp's last tick");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 120 symbolic values, 1 tick (the state (90), sensors (17), request (13)).
 #[kani::proof]
@@ -453,6 +465,7 @@ fn from_any_stopping_state_f32() {
 fn from_any_stopping_state_fx() {
     let r = step::<kernel::Fx>(Draw::Stopping, Scope::Whole);
     kani::cover!(r.ramp_end, "the ramp's last tick");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 110 symbolic values, 1 tick (the state (80), sensors (17), request (13)).
 #[kani::proof]
@@ -461,6 +474,7 @@ fn from_any_latched_or_unhomed_state_f32() {
     let r = step::<f32>(Draw::Latched, Scope::Whole);
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 110 symbolic values, 1 tick (the state (80), sensors (17), request (13)).
 #[kani::proof]
@@ -469,6 +483,7 @@ fn from_any_latched_or_unhomed_state_fx() {
     let r = step::<kernel::Fx>(Draw::Latched, Scope::Whole);
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 
 // The same steps with one axis symbolic (see `Scope`): a symbolic axis
@@ -497,6 +512,7 @@ fn from_one_axis_operational_state_fx() {
 fn from_one_axis_stopping_state_f32() {
     let r = step::<f32>(Draw::Stopping, one_axis());
     kani::cover!(r.ramp_end, "the ramp's last tick");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -504,6 +520,7 @@ fn from_one_axis_stopping_state_f32() {
 fn from_one_axis_stopping_state_fx() {
     let r = step::<kernel::Fx>(Draw::Stopping, one_axis());
     kani::cover!(r.ramp_end, "the ramp's last tick");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 36 symbolic values, 1 tick (the shared state, the mode and
 /// reason, the homed mask (14), the axis without a last output (11),
@@ -514,6 +531,7 @@ fn from_one_axis_latched_or_unhomed_state_f32() {
     let r = step::<f32>(Draw::Latched, one_axis());
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
 /// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -522,4 +540,5 @@ fn from_one_axis_latched_or_unhomed_state_fx() {
     let r = step::<kernel::Fx>(Draw::Latched, one_axis());
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
+    kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
