@@ -9,7 +9,8 @@
 //!   same state (equal `Debug` renderings) on every tick of simulated MT6816
 //!   streams (periods across and beyond the accepted +-10 %, moving counts,
 //!   CYCCNT wraps, glitches: missed and spurious captures, inconsistent
-//!   snapshots, skipped ticks, jitter) and of fully random snapshots.
+//!   snapshots, skipped ticks, jitter), half of them from the boot
+//!   calibration's period and phase, and of fully random snapshots.
 //! * [`EncoderChannel`] (decoder + tracker) reads what the reference decodes,
 //!   through its public API.
 
@@ -89,6 +90,8 @@ struct Stream {
     glitch: u64,
     /// CYCCNT at t = 0 (wraps during the run)
     cyc0: u64,
+    /// Both decoders start with the boot calibration's period and phase.
+    calibrated: bool,
 }
 
 impl Stream {
@@ -145,6 +148,15 @@ impl Gated {
 fn run(s: &Stream, ticks: usize, rng: &mut Rng) -> (usize, usize, usize) {
     let (mut new, mut reference) = (FrameDecoder::new(), reference::FrameDecoder::new());
     let mut channel = EncoderChannel::new();
+    if s.calibrated {
+        // the boot calibration's result: the period to a few cycles, a
+        // rising edge's time to 32
+        let p = (s.period + rng.below(9) as f64 - 4.0) as u32;
+        let edge = (s.cyc0 as f64 + s.start(0) + rng.below(33) as f64) as u64 as u32;
+        new.calibrate(p, edge);
+        reference.calibrate(p, edge);
+        channel.calibrate(p, edge);
+    }
     let mut gated = Gated { k: 0, at_k: 0 };
     let mut prev = 0.0f64;
     let mut stats = (0, 0, 0);
@@ -225,6 +237,7 @@ fn decoder_equals_the_reference_on_simulated_streams() {
             },
             glitch: [0, 0, 2, 10, 50][rng.below(5) as usize],
             cyc0: (u32::MAX - rng.below(1 << 31) as u32) as u64,
+            calibrated: n % 2 == 1,
         };
         let (counts, measured, fast) = run(&s, 2500, &mut rng);
         totals = (totals.0 + 2500, totals.1 + counts, totals.2 + measured, totals.3 + fast);

@@ -72,6 +72,12 @@ impl EncoderChannel {
         }
     }
 
+    /// Hands the boot calibration's period and edge time to the frame
+    /// decoder ([`FrameDecoder::calibrate`]).
+    pub fn calibrate(&mut self, period: u32, edge_cycles: u32) {
+        self.decoder.calibrate(period, edge_cycles);
+    }
+
     /// The frame decoder's period estimate (CPU cycles) and whether it was
     /// measured.
     pub const fn period(&self) -> (u32, bool) {

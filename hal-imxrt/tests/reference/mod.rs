@@ -19,9 +19,27 @@
 use super::hal::pure::clock::CYCLES_PER_QTIMER_TICK;
 use super::hal::pure::encoder::{decode_window, EncoderReading, LossReason};
 use super::hal::pure::frame::{
-    Snapshot, EDGE_MARGIN_CYCLES, FIRST_SPAN_FRAMES, FRAME_DECODE, MAX_FRAME_AGE, MAX_PERIOD_CYCLES, MIN_PERIOD_CYCLES,
-    NOMINAL_PERIOD_CYCLES, PERIOD_ANCHOR_FRAMES, QUIET_WINDOWS, TICK_CYCLES,
+    Snapshot, CALIBRATION_FRAMES, DOUBLE_WINDOW_STAMP_CYCLES, EDGE_MARGIN_CYCLES, FIRST_SPAN_FRAMES, FRAME_DECODE,
+    MAX_FRAME_AGE, MAX_PERIOD_CYCLES, MIN_PERIOD_CYCLES, NOMINAL_PERIOD_CYCLES, PERIOD_ANCHOR_FRAMES,
+    PREDICTION_FRAMES_PER_SPAN, QUIET_MIN_WINDOW_CYCLES, QUIET_WINDOWS, TICK_CYCLES, UNMEASURED_TOLERANCE_COUNTS,
 };
+
+/// A frame's reading while the period is not measured: the nominal decode
+/// if the decodes at `shortest` and `MAX_PERIOD_CYCLES` agree within the
+/// tolerance, with [`decode_window`].
+pub fn decode_unmeasured(high_ticks: u16, period: u32, shortest: u32) -> EncoderReading {
+    let decode = |p: u32| decode_window(high_ticks as u32, p, &FRAME_DECODE);
+    let nominal = decode(period);
+    if nominal.count().is_none() {
+        return nominal;
+    }
+    match (decode(shortest), decode(MAX_PERIOD_CYCLES)) {
+        (EncoderReading::Count(hi), EncoderReading::Count(lo)) if hi.abs_diff(lo) <= UNMEASURED_TOLERANCE_COUNTS => {
+            nominal
+        }
+        _ => EncoderReading::Lost(LossReason::Acquiring),
+    }
+}
 
 /// Why the decoder has no frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,10 +56,12 @@ pub struct FrameDecoder {
     pub anchor: Option<(u32, u32)>,
     pub quiet_since_anchor: bool,
     pub since_quiet: u16,
+    pub slow: bool,
     pub phase: Option<u32>,
     pub stamped: Option<u16>,
     pub last_t: Option<u32>,
     pub period: u32,
+    pub span: u32,
     pub measured: bool,
     pub high: Option<u16>,
     pub age: u8,
@@ -58,10 +78,12 @@ impl FrameDecoder {
             anchor: None,
             quiet_since_anchor: false,
             since_quiet: 0,
+            slow: false,
             phase: None,
             stamped: None,
             last_t: None,
             period: NOMINAL_PERIOD_CYCLES,
+            span: 0,
             measured: false,
             high: None,
             age: 0,
@@ -88,8 +110,9 @@ impl FrameDecoder {
         let p = self.period as i64;
         let rel = |t: u32| t.wrapping_sub(ph) as i32 as i64;
         let (d0, d1) = (rel(t0), rel(t1));
-        // a phase more than ~2 000 frames old: prediction error too large
-        if d0.abs() > 2_000 * p || d1.abs() > 2_000 * p || d1 < d0 {
+        // a phase older than the horizon: prediction error too large
+        let horizon = self.horizon() as i64;
+        if d0.abs() > horizon * p || d1.abs() > horizon * p || d1 < d0 {
             return None;
         }
         let m = EDGE_MARGIN_CYCLES as i64;
@@ -103,6 +126,54 @@ impl FrameDecoder {
         Some((d1.div_euclid(p) - d0.div_euclid(p)) as u32)
     }
 
+    /// Frames past the phase the prediction reaches.
+    pub const fn horizon(&self) -> u32 {
+        let h = self.span.saturating_mul(PREDICTION_FRAMES_PER_SPAN);
+        if h < 2_000 {
+            h
+        } else {
+            2_000
+        }
+    }
+
+    /// A new estimate over `frames` frames replaces the current one.
+    pub const fn keeps(&self, frames: u32) -> bool {
+        let need = if self.span < PERIOD_ANCHOR_FRAMES { self.span } else { PERIOD_ANCHOR_FRAMES };
+        !self.measured || frames >= need
+    }
+
+    /// The phase from a window predicted to hold two edges, on `i64`
+    /// `rem_euclid`.
+    pub fn refresh_phase(&mut self, s: Snapshot) {
+        let (Some(ph), Some(h)) = (self.phase, self.high) else {
+            return;
+        };
+        let p = self.period as i64;
+        let d = s.cycles.wrapping_sub(ph) as i32 as i64;
+        let r = d.rem_euclid(p) as u32;
+        let since = s.cntr.wrapping_sub(s.capt) as u32 * CYCLES_PER_QTIMER_TICK;
+        let first_high = h as u32 * CYCLES_PER_QTIMER_TICK;
+        let overwritten = since.abs_diff(r) <= DOUBLE_WINDOW_STAMP_CYCLES;
+        let inhibited = since >= first_high && (since - first_high).abs_diff(r) <= DOUBLE_WINDOW_STAMP_CYCLES;
+        if overwritten {
+            self.phase = Some(s.cycles.wrapping_sub(since));
+        } else if inhibited {
+            self.phase = Some(s.cycles.wrapping_sub(since - first_high));
+        }
+    }
+
+    /// A period measured outside the decoder and an edge as the phase.
+    pub fn calibrate(&mut self, period: u32, edge_cycles: u32) {
+        if (NOMINAL_PERIOD_CYCLES / 2..=MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2).contains(&period) {
+            self.period = period;
+            self.span = CALIBRATION_FRAMES;
+            self.measured = true;
+            self.phase = Some(edge_cycles);
+            self.anchor = None;
+            self.quiet_since_anchor = false;
+        }
+    }
+
     /// Rising edge number `edge` timestamped at `t`, on `u64` divisions.
     pub fn timestamp(&mut self, edge: u32, t: u32) {
         self.phase = Some(t);
@@ -113,10 +184,13 @@ impl FrameDecoder {
         };
         let span = t.wrapping_sub(t0) as u64;
         let by_index = edge.wrapping_sub(n0) as u64;
-        if quiet && by_index > 0 {
+        if quiet && by_index > 0 && !self.fast() {
             let est = (span + by_index / 2) / by_index;
             if (TICK_CYCLES as u64..=MAX_PERIOD_CYCLES as u64).contains(&est) {
-                self.period = est as u32;
+                if self.keeps(by_index as u32) {
+                    self.period = est as u32;
+                    self.span = by_index as u32;
+                }
                 self.measured = true;
                 if by_index >= PERIOD_ANCHOR_FRAMES as u64 {
                     self.anchor = Some((edge, t));
@@ -137,7 +211,10 @@ impl FrameDecoder {
         }
         let est = ((span + frames / 2) / frames) as u32;
         if (NOMINAL_PERIOD_CYCLES / 2..=MAX_PERIOD_CYCLES + MAX_PERIOD_CYCLES / 2).contains(&est) {
-            self.period = est;
+            if self.keeps(frames as u32) {
+                self.period = est;
+                self.span = frames as u32;
+            }
             self.measured = true;
             if frames >= PERIOD_ANCHOR_FRAMES as u64 {
                 self.anchor = Some((edge, t));
@@ -153,8 +230,10 @@ impl FrameDecoder {
     pub fn update(&mut self, s: Snapshot) -> EncoderReading {
         let prev_t = self.last_t.replace(s.cycles);
         let mut fresh = false;
+        let quiet = !s.ief && prev_t.is_some_and(|t0| s.cycles.wrapping_sub(t0) >= QUIET_MIN_WINDOW_CYCLES);
         if s.consistent {
-            self.since_quiet = if s.ief { self.since_quiet.saturating_add(1) } else { 0 };
+            self.since_quiet = if quiet { 0 } else { self.since_quiet.saturating_add(1) };
+            self.slow |= quiet;
         }
         let clean = if self.fast() {
             match prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) {
@@ -167,15 +246,18 @@ impl FrameDecoder {
         if !s.consistent {
             self.anchor = None;
             self.quiet_since_anchor = false;
-        } else if !s.ief && self.anchor.is_some() {
+        } else if quiet && self.anchor.is_some() {
             self.quiet_since_anchor = true;
         }
         if !s.consistent || !clean {
             self.last_capt = None;
             if s.consistent && s.ief {
-                let single = prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles)) == Some(1);
-                if single {
+                let predicted = prev_t.and_then(|t0| self.predicted_edges(t0, s.cycles));
+                if predicted == Some(1) {
                     self.last_capt = Some(s.capt);
+                }
+                if predicted == Some(2) && s.input_high {
+                    self.refresh_phase(s);
                 }
                 self.edges = self.edges.wrapping_add(1);
             }
@@ -210,6 +292,10 @@ impl FrameDecoder {
                 self.high = None;
                 self.last_capt = None;
                 EncoderReading::Lost(if s.input_high { LossReason::StuckHigh } else { LossReason::NoSignal })
+            }
+            Some(h) if !self.measured => {
+                let shortest = if self.slow { QUIET_MIN_WINDOW_CYCLES } else { MIN_PERIOD_CYCLES };
+                decode_unmeasured(h, self.period, shortest)
             }
             Some(h) => decode_window(h as u32, self.period, &FRAME_DECODE),
             None => {
