@@ -50,14 +50,15 @@ fi
 # profile's opt-level 3. Passed on the command line, not in Cargo.toml, so the
 # host's release builds (the simulator) are unchanged.
 #
-# OFF by default (IMAGE_SIZE_OPT=1 turns it on): with it, boot runs slower
-# code before the first tick, which moves the encoder frames' phase at the
-# kernel's first reading; on the twin a 9.5 %-fast MT6816 (J4) was then
-# read off by 246 counts before its decoder had measured the frame period
-# (ENCODER_JUMP at boot, twin/tests/defects.rs defect6). It stays off until
-# the decoder reports such readings as lost (SAFETY.md section 8) with an
-# image that is still reproducible across build directories (the check
-# below).
+# OFF by default (IMAGE_SIZE_OPT=1 turns it on). It moves the boot timing
+# (slower code before the first tick), which once decided whether a
+# 9.5 %-fast MT6816 on the twin was mis-read before its decoder knew the
+# frame period; that no longer depends on timing: the decoder reports no
+# count it cannot trust before the period is known and the root calibrates
+# every encoder's period at boot (hal_imxrt::pure::frame,
+# firmware::root::CALIBRATION_MS; twin/tests/defects.rs defect6 at eight
+# boot phases). It stays off until an image built with it is reproducible
+# across build directories (the check below).
 IMAGE_PROFILE=()
 if [ "${IMAGE_SIZE_OPT:-0}" = 1 ]; then
   IMAGE_PROFILE=(--config 'profile.release.package."*".opt-level="z"'

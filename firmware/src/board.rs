@@ -54,6 +54,17 @@ pub trait TickBoard {
     fn driver_fault(&mut self) -> Option<(u8, DriverCause)> {
         None
     }
+    /// Boot only: [`TickBoard::capture`] may be called back to back, each
+    /// snapshot taken at the board's real time ([`TickBoard::cycles`]), so
+    /// the root can poll the capture channels to measure every encoder's
+    /// frame period before the first tick (`root::CALIBRATION_MS`). The
+    /// Teensy: yes. Default: no (the simulator's arm moves only in
+    /// [`TickBoard::boot_wait_ms`]); the decoders then measure the period
+    /// from the 1 ms snapshots, and the boot self-test waits for them (at
+    /// most `root::SETTLE_MAX_MS`).
+    fn can_poll_capture(&self) -> bool {
+        false
+    }
 }
 
 /// A byte link to the host (USB CDC, Serial1, a pseudo-terminal).

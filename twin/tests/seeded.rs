@@ -61,10 +61,12 @@ fn an_encoder_reporting_a_wrong_angle_is_caught_and_a_right_one_is_not() {
     assert_eq!(wrong_angles(&seeded), vec![2]);
 }
 
+/// The self-test waits for a silent encoder up to `SETTLE_MAX_MS` (1 s,
+/// after the period calibration's 16 ms), then fails it.
 #[test]
 fn a_dead_encoder_line_fails_the_image_boot_self_test() {
     let mut t = twin_with(|p| p.joints[2].encoder_cut = true);
-    run(&mut t, 80);
+    run(&mut t, 1_100);
     let l = lines(&t);
     // code = ENCODER (0x40) | J3's bit (0x04) = 68
     assert!(l.iter().any(|s| s == "FAULT HARDWARE SELF_TEST code=68"), "{l:?}");

@@ -175,6 +175,10 @@ impl TickBoard for Teensy {
         self.cycles.wait_since(t, CYCLES_PER_MS);
         self.wdog.feed();
     }
+    fn can_poll_capture(&self) -> bool {
+        // `capture` reads the QuadTimer registers and CYCCNT at the moment
+        true
+    }
 }
 
 /// Everything the tick touches. Lives in DTCM (`.bss`, teensy4-bsp's
@@ -515,9 +519,12 @@ fn init_root(
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
     let (mut controller, mut host) = root::new(&PAROL6_VALIDATED, link, HOST_CFG);
     host.set_reset_cause(reset);
-    // Boot self-test: the encoders and limit inputs are sampled for
-    // `SELF_TEST_MS`; the warm channels go to the tick, so the first kernel
-    // readings initialise the observers at the real angles (nothing moves).
+    // Boot self-test: every encoder's frame period is measured by polling
+    // the capture channels (at most `CALIBRATION_MS`), then the encoders
+    // and limit inputs are sampled for `SELF_TEST_MS` (longer, at most
+    // `SETTLE_MAX_MS`, while an encoder has no reading); the warm channels
+    // go to the tick, so the first kernel readings initialise the
+    // observers at the real angles (nothing moves).
     let boot = controller.boot(&mut board, marker, reset == ResetCause::Watchdog);
     // The PIT ran through the self-test with its interrupt masked and has
     // its flag set: restart its period so the first tick (and its watchdog
