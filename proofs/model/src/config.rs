@@ -38,7 +38,39 @@ pub(crate) const MODEL_RELAXATIONS: [(&str, &str); 3] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kernel::config::PAROL6;
+    use kernel::config::{Validated, PAROL6};
+    use kernel::homing::Phase;
+    use kernel::{Fx, Request, State};
+    use proofs::setup::{new_kernel, still, HOMING_TICKS};
+
+    /// Whether `<HOME>` on the stationary arm under `c` ends Operational
+    /// when every seeking axis's switch arrives on the first tick it seeks
+    /// (the fastest run the model's environment offers).
+    fn homes(c: ArmConfig) -> bool {
+        let (mut k, _) = new_kernel::<Fx>(&Validated::relaxed(c));
+        k.tick(&still(0), None);
+        k.tick(&still(0), Some(Request::Home));
+        for _ in 0..HOMING_TICKS {
+            if k.state() != State::Homing {
+                break;
+            }
+            let phases = k.homing_phases();
+            let seeking = phases.iter().enumerate().filter(|(_, p)| matches!(p, Phase::FastSeek | Phase::SlowSeek));
+            let limits = seeking.fold(0u8, |m, (i, _)| m | 1 << i);
+            k.tick(&still(limits), None);
+        }
+        k.state() == State::Operational
+    }
+
+    /// The 8 ms homing timeout is the shortest with which a homing run can
+    /// finish: the model cannot shrink its homing histories by shortening it.
+    #[test]
+    fn the_homing_timeout_is_the_shortest_that_homes() {
+        assert!(homes(MODEL_CONFIG), "the model's configuration homes");
+        let mut c = MODEL_CONFIG;
+        c.joints.iter_mut().for_each(|j| j.homing.timeout_ms -= 1);
+        assert!(!homes(c), "a homing timeout 1 ms shorter still homes");
+    }
 
     #[test]
     fn model_config_relaxes_exactly_the_named_rules() {

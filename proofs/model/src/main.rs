@@ -2,7 +2,7 @@
 //! over the real `kernel::Kernel` (`cargo run -p model --release`).
 //!
 //! ```text
-//! model [--variant fx|f32] [--config full|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S]
+//! model [--variant fx|f32] [--config full|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--census]
 //! ```
 //!
 //! With no arguments: the full configuration over `Kernel<Fx>` (bounded by
@@ -14,6 +14,8 @@
 //! configuration takes over 10 minutes in f32). `--expect-violation NAME`
 //! is for the mutation tests (`mutants.sh`): it stops at, and succeeds only
 //! on, a violation of a property whose name contains NAME.
+//! `--census` prints how many unique states each kernel state, homed mask
+//! and tuple of homing phases holds (`census`).
 //!
 //! Properties: each transition check (`checks!`) and each state property is
 //! a property of its own, named by the requirements it checks (`SR-5: a
@@ -51,6 +53,9 @@
 //!   The kernel's continuous state (set-point velocities,
 //!   following-error paths, homing ramps) keeps the model from finishing:
 //!   the test command runs it bounded (`--bounded`, sampled evidence).
+//!   `--census` shows where its states lie: almost all in homing runs, as
+//!   the product of the last group's three per-axis homing histories
+//!   (SAFETY.md gives the figures).
 //! - The full configuration, to fit its time budget, explores during homing
 //!   (where every request is refused) only no request and one motion
 //!   request, and only four perturbations (none, J1 lost, hardware fault,
@@ -99,7 +104,8 @@
 //! too: an exploration that never reached one did not reach what it
 //! shows).
 //!
-//! Modules, one job each: [`config`] (the arm configuration and its
+//! Modules, one job each: [`census`] (where the explored states lie),
+//! [`config`] (the arm configuration and its
 //! relaxations), [`identity`] (how a kernel state is identified),
 //! [`state`] (a model state), [`environment`] (the choices offered on a
 //! tick), [`transition`] (one tick and its transition checks), [`checks`]
@@ -108,6 +114,7 @@
 //! [`model`] (the configurations and the stateright model), [`mod@run`] (one
 //! exploration and its evidence).
 
+mod census;
 mod checks;
 mod config;
 mod environment;
@@ -129,6 +136,8 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |k: &str| args.iter().position(|a| a == k).and_then(|i| args.get(i + 1)).map(String::as_str);
     let expect = arg("--expect-violation");
+    // `--census`: print where the explored states lie (`census`).
+    census::ON.store(args.iter().any(|a| a == "--census"), std::sync::atomic::Ordering::Relaxed);
     // `--bounded S`: explore breadth first for at most S seconds and report
     // a bounded exploration (sampled evidence) if it does not finish.
     // Only the full configuration is bounded: the reduced ones (small,

@@ -62,6 +62,9 @@ pub(crate) fn run<S: ModelScalar>(cfg: &str, expect: Option<&str>, timeout: Opti
         }
     }
     let checker = checker.join();
+    if crate::census::ON.load(Ordering::Relaxed) {
+        crate::census::report(S::NAME, cfg, 30);
+    }
     let secs = started.elapsed().as_secs_f64();
     let stopped = timeout.is_some_and(|t| secs >= t as f64) || checker.state_count() >= CAP;
     if stopped && !bounded {

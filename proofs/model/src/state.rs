@@ -31,7 +31,7 @@ pub(crate) struct St<S: Scalar> {
 }
 
 impl<S: ModelScalar> St<S> {
-    fn fingerprint(&self) -> u64 {
+    pub(crate) fn fingerprint(&self) -> u64 {
         let mut h = DefaultHasher::new();
         self.hash(&mut h);
         h.finish()

@@ -230,6 +230,7 @@ impl<S: ModelScalar> Supervisor<S> {
         n.violated |= c.violated;
         n.ever_enabled |= enabled;
         c.record();
+        crate::census::note(&n);
         n
     }
 }
