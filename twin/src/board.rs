@@ -14,6 +14,7 @@ use crate::plant::Plant;
 use crate::pwm::FlexPwm;
 use crate::qtimer::{InputWave, QTimer};
 use crate::tmc5160::Tmc5160;
+use crate::usb::{Usb, IRQ_USB_OTG1};
 use crate::wdog::Wdog;
 
 /// CPU cycles per second. The twin keeps its own figures for the chip and
@@ -38,7 +39,7 @@ const LPSPI3: u32 = 0x4039_C000;
 const TMR: [u32; 4] = [0x401D_C000, 0x401E_0000, 0x401E_4000, 0x401E_8000];
 const PWM: [u32; 4] = [0x403D_C000, 0x403E_0000, 0x403E_4000, 0x403E_8000];
 const XBARA1: u32 = 0x403B_C000;
-const USB1: u32 = 0x402E_0000;
+const USB1: u32 = crate::usb::USB1;
 const USBPHY1: u32 = 0x400D_9000;
 
 /// XBARA1 outputs feeding FlexPWM1..4 FAULT0..3.
@@ -79,6 +80,8 @@ pub struct Board {
     pub tmc: [Tmc5160; 6],
     /// Each driver's chip-select level as last seen (high = deselected).
     tmc_cs_high: [bool; 6],
+    /// USB OTG1 (device mode, endpoint 0) and the host on its bus.
+    pub usb: Usb,
     /// TMR1..4.
     pub tmr: [QTimer; 4],
     /// PWM1..4.
@@ -132,6 +135,9 @@ pub struct Board {
     /// WFI sleeps (the default); `TWIN_WFI_NOP=1` makes it a NOP, as on a
     /// core that does not implement sleep.
     pub wfi_sleeps: bool,
+    /// The core executed `BKPT #imm` at this time and halted in debug
+    /// state (no debugger: nothing resumes it).
+    pub bkpt_halt: Option<(u8, u64)>,
     /// WFI instructions executed (each a sleep).
     pub wfi_count: u64,
     /// PIT entries that waited for the mask to be lifted.
@@ -186,6 +192,7 @@ impl Board {
             spi3: Lpspi::default(),
             tmc: Default::default(),
             tmc_cs_high: [true; 6],
+            usb: Usb::default(),
             tmr: Default::default(),
             pwm: Default::default(),
             xbar: [0; 132],
@@ -208,6 +215,7 @@ impl Board {
             sleeping: false,
             wfi_sleeps: std::env::var_os("TWIN_WFI_NOP").is_none(),
             wfi_count: 0,
+            bkpt_halt: None,
             irq_unmask_entries: 0,
             stopped_at: None,
             trace: [0; 16],
@@ -240,6 +248,7 @@ impl Board {
         self.uart.reset(self.now);
         self.spi3.reset();
         self.tmc_cs_update();
+        self.usb.reset();
         self.tmr = Default::default();
         for p in self.pwm.iter_mut() {
             let rec = p.record;
@@ -370,7 +379,7 @@ impl Board {
 
     /// Next time anything needs the CPU's attention (PIT expiry, watchdog).
     pub fn next_event(&self) -> u64 {
-        let t = self.next_pit().unwrap_or(u64::MAX);
+        let t = self.next_pit().unwrap_or(u64::MAX).min(self.usb.next_event().unwrap_or(u64::MAX));
         self.wdog.deadline().map_or(t, |w| t.min(w))
     }
 
@@ -397,6 +406,11 @@ impl Board {
     pub fn uart_irq(&mut self) -> bool {
         self.sync();
         self.uart.requesting() && self.nvic_enabled(IRQ_LPUART6)
+    }
+
+    /// The USB OTG1 interrupt is requested and enabled in the NVIC.
+    pub fn usb_irq(&self) -> bool {
+        self.usb.requesting() && self.nvic_enabled(IRQ_USB_OTG1)
     }
 
     /// When the next interrupt can become pending while the core sleeps:
@@ -573,6 +587,7 @@ impl Board {
             b if GPT.contains(&b) => return self.gpt[usize::from(b == GPT[1])].read(off, self.now, self.cpu_hz),
             LPUART6 => return self.uart.read(off, self.now),
             LPSPI3 => return self.spi3.read(off, self.now),
+            USB1 if off < 0x200 => return self.usb.read(off),
             SRC if off == 0x8 => return self.srsr,
             _ => {}
         }
@@ -692,6 +707,10 @@ impl Board {
                 self.srsr &= !v;
                 return;
             }
+            USB1 if off < 0x200 => {
+                self.usb.write(off, v, self.now);
+                return;
+            }
             _ => {}
         }
         // SET/CLR/TOG aliases of CCM_ANALOG/PMU and USBPHY registers
@@ -708,8 +727,6 @@ impl Board {
             self.regs.insert(reg, new);
             return;
         }
-        // USB1 USBCMD: RST (bit 1) self-clears
-        let v = if a == USB1 + 0x140 { v & !2 } else { v };
         self.regs.insert(a, v);
     }
 }

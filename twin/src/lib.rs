@@ -18,6 +18,7 @@ pub mod qtimer;
 pub mod ram_fault;
 pub mod scenario;
 pub mod tmc5160;
+pub mod usb;
 pub mod wdog;
 
 pub use board::{Board, CPU_HZ};

@@ -18,6 +18,7 @@ use crate::lpuart::IRQ_LPUART6;
 use crate::mpu::MpuFault;
 use crate::pit::IRQ_PIT;
 use crate::plant::Plant;
+use crate::usb::IRQ_USB_OTG1;
 
 const ITCM: u64 = 0x0000_0000;
 const DTCM: u64 = 0x2000_0000;
@@ -84,6 +85,8 @@ pub struct Stats {
     pub uart_calls: u64,
     /// Accesses the MPU refused (each taken as a HardFault).
     pub mpu_faults: Vec<MpuFault>,
+    /// USB OTG1 handler invocations.
+    pub usb_calls: u64,
 }
 
 /// The twin: CPU + board.
@@ -207,6 +210,25 @@ impl Twin {
             }
         })
         .map_err(e)?;
+        uc.add_intr_hook(|uc: &mut Unicorn<'_, Board>, _intno: u32| {
+            // BKPT without a debugger attached: the core halts in debug
+            // state (`bkpt #251` is how a Teensy image hands over to its
+            // bootloader). Unicorn reports it as an exception; the PC is at
+            // the instruction or after it.
+            let pc = uc.reg_read(RegisterARM::PC).unwrap_or(0);
+            let bkpt = [pc, pc.wrapping_sub(2)].into_iter().find_map(|a| {
+                let mut hw = [0u8; 2];
+                let h = uc.mem_read(a, &mut hw).is_ok().then(|| u16::from_le_bytes(hw))?;
+                (h & 0xFF00 == 0xBE00).then_some(h as u8)
+            });
+            if let Some(imm) = bkpt {
+                let b = uc.get_data_mut();
+                let now = b.now;
+                b.bkpt_halt = Some((imm, now));
+            }
+            let _ = uc.emu_stop();
+        })
+        .map_err(e)?;
         uc.add_insn_invalid_hook(|uc: &mut Unicorn<'_, Board>| {
             // WFI: the core sleeps; the harness resumes it after the WFI
             // once an enabled interrupt is pending (`Twin::run_until`).
@@ -294,6 +316,7 @@ impl Twin {
         self.next_pc = Some(u64::from(self.boot_pc & !1));
         self.in_handler = None;
         self.board_mut().sleeping = false;
+        self.board_mut().bkpt_halt = None;
         Ok(())
     }
 
@@ -335,15 +358,29 @@ impl Twin {
             if self.board().mpu.dirty {
                 self.apply_mpu().map_err(|w| self.fault(w))?;
             }
+            if self.board().bkpt_halt.is_some() {
+                // halted at a breakpoint (no debugger attached: the core
+                // stays in debug state): no instruction runs again; the
+                // peripherals keep their clocks as in a debug halt, and the
+                // USB controller finishes what the host sends
+                crate::usb::service(&mut self.uc);
+                let next = self.board().usb.next_event().unwrap_or(u64::MAX).min(t_end);
+                self.debug_halt(next.saturating_sub(self.now()).max(1));
+                continue;
+            }
+            crate::usb::service(&mut self.uc);
             if self.board().sleeping && self.sleep(t_end) {
                 continue;
             }
             let pending = self.board_mut().pit_irq();
             let uart_pending = self.board_mut().uart_irq();
+            let usb_pending = self.board().usb_irq();
             if self.in_handler.is_none() && pending && !pit_masked(&self.uc) {
                 self.enter_irq(IRQ_PIT)?;
             } else if self.in_handler.is_none() && uart_pending && !irq_masked(&self.uc, IRQ_LPUART6) {
                 self.enter_irq(IRQ_LPUART6)?;
+            } else if self.in_handler.is_none() && usb_pending && !irq_masked(&self.uc, IRQ_USB_OTG1) {
+                self.enter_irq(IRQ_USB_OTG1)?;
             }
             let now = self.now();
             let in_thread = self.in_handler.is_none();
@@ -359,8 +396,14 @@ impl Twin {
             // core takes it as soon as the mask is lifted); in a handler it
             // waits for the handler's return (same priority: no nesting;
             // the return to the sentinel stops the CPU).
-            b.irq_wait_unmask = (pending || uart_pending) && in_thread;
-            b.irq_wait = if pending { IRQ_PIT } else { IRQ_LPUART6 };
+            b.irq_wait_unmask = (pending || uart_pending || usb_pending) && in_thread;
+            b.irq_wait = if pending {
+                IRQ_PIT
+            } else if uart_pending {
+                IRQ_LPUART6
+            } else {
+                IRQ_USB_OTG1
+            };
             b.stop_at = stop.max(now + 1);
             // Idle skipping: only thread code (no handler running) after the
             // image enabled the PIT interrupt, i.e. its main loop.
@@ -448,7 +491,7 @@ impl Twin {
     /// core still sleeps.
     fn sleep(&mut self, t_end: u64) -> bool {
         let b = self.uc.get_data_mut();
-        if b.pit_irq() || b.uart_irq() {
+        if b.pit_irq() || b.uart_irq() || b.usb_irq() {
             b.sleeping = false;
             return false;
         }
@@ -484,6 +527,10 @@ impl Twin {
         let b = self.board_mut();
         if std::mem::take(&mut b.irq_wait_unmask) {
             b.irq_unmask_entries += 1;
+        }
+        if irq == IRQ_USB_OTG1 {
+            self.stats.usb_calls += 1;
+            return Ok(());
         }
         if irq != IRQ_PIT {
             self.stats.uart_calls += 1;

@@ -27,6 +27,8 @@ pub struct Usb {
     serial: SerialPort<'static, BusAdapter>,
     busy: bool,
     baud: BootloaderBaud,
+    /// The device was in the `Configured` state at the last poll.
+    configured: bool,
 }
 
 static EP_MEMORY: EndpointMemory<2048> = EndpointMemory::new();
@@ -72,7 +74,7 @@ impl Usb {
             Err(_) => super::halt(),
         };
         let dev = builder.build();
-        Self { dev, serial, busy: false, baud: BootloaderBaud::new() }
+        Self { dev, serial, busy: false, baud: BootloaderBaud::new(), configured: false }
     }
 
     /// The host asked for the bootloader: it set the line to 134 baud
@@ -89,6 +91,16 @@ impl Port for Usb {
         // it completes wakes the core through the USB interrupt; bytes it
         // brings are read in this pass.)
         let _ = self.dev.poll(&mut [&mut self.serial]);
+        // imxrt-usbd enables and primes the bulk and interrupt endpoints
+        // only when told the host configured the device (`configure`, once
+        // per configuration): without it the CDC data endpoints stay
+        // disabled and no byte moves (the twin's USB model shows the OUT
+        // endpoint primed after SET_CONFIGURATION, `twin/tests/usb.rs`).
+        let configured = self.dev.state() == UsbDeviceState::Configured;
+        if configured && !self.configured {
+            self.dev.bus().configure();
+        }
+        self.configured = configured;
     }
     fn is_open(&self) -> bool {
         self.dev.state() == UsbDeviceState::Configured && self.serial.dtr()
