@@ -138,6 +138,30 @@ print(f"ITCM code: {itcm} B   DTCM: .data {s('.data')} + .bss {s('.bss')} + stac
 print(f"OCRAM: .rodata {s('.rodata')} (copied from flash) + .uninit {s('.uninit')} + heap {s('.heap')} (unused) B")
 PY
 
+echo "== boot RAM test coverage (firmware/src/target/ram_test.rs)"
+# The boot RAM test covers .bss and .data by their linker bounds: every
+# writable static must lie in one of them; the one exception is the panic
+# marker in .uninit (it must survive a reset). Fails on any other.
+RAM_RC=0
+"$NM" -S "$OUT/parol6.elf" | python3 -c '
+import sys
+rows = [l.strip().split(None, 3) for l in sys.stdin]
+sym = {r[-1]: int(r[0], 16) for r in rows if len(r) >= 3}
+objs = [(int(r[0], 16), int(r[1], 16), r[3]) for r in rows if len(r) == 4 and r[2] in "bBdD" and int(r[1], 16) > 0]
+tested = [(sym["__sbss"], sym["__ebss"]), (sym["__sdata"], sym["__edata"])]
+uninit = (sym["__suninit"], sym["__euninit"])
+bad, n, size = [], 0, 0
+for a, sz, name in objs:
+    if any(lo <= a and a + sz <= hi for lo, hi in tested):
+        n += 1; size += sz
+    elif not (uninit[0] <= a and a + sz <= uninit[1] and "PANIC_MARK" in name):
+        bad.append(f"{name} at {a:#x}, {sz} B")
+(bl, bh), (dl, dh) = tested
+print(f"{n} writable statics, {size} B, in .bss {bh - bl} B + .data {dh - dl} B: tested at boot")
+for b in bad:
+    print(f"FAIL: writable static outside .bss/.data, not covered by the boot RAM test: {b}")
+sys.exit(1 if bad else 0)' || RAM_RC=1
+
 echo "== flash bytes by crate (firmware/tools/size_by_crate.py)"
 python3 "$ROOT/firmware/tools/size_by_crate.py" "$BIN/llvm-nm" "$OUT/parol6.elf" || echo "(size by crate failed)"
 
@@ -258,4 +282,5 @@ fi
 
 if [ "$PANIC_RC" != 0 ]; then echo "FAIL: panic path reachable from the tick handler (see above)"; fi
 if [ "$STACK_RC" != 0 ]; then echo "FAIL: main stack layout or bound (see above)"; fi
-[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ] && [ "$PATH_RC" = 0 ] && [ "$STACK_RC" = 0 ]
+if [ "$RAM_RC" != 0 ]; then echo "FAIL: a writable static the boot RAM test does not cover (see above)"; fi
+[ "$PANIC_RC" = 0 ] && [ "$REPRO_RC" = 0 ] && [ "$PATH_RC" = 0 ] && [ "$STACK_RC" = 0 ] && [ "$RAM_RC" = 0 ]

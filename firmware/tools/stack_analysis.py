@@ -27,15 +27,20 @@ direct-call graph (tick_analysis.py's disassembly), this prints:
    guard's bottom or above it (every frame below the top is smaller than
    the guard, 4), and the handler runs with the MPU off, so it has the
    guard's kilobyte and the one below; FAILS if it needs more than the
-   kilobyte below (FATAL_RESERVE), the room it has in the worst case.
+   kilobyte below (FATAL_RESERVE), the room it has in the worst case;
+6. the boot RAM test's own calls: it tests the stack below the stack
+   pointer it reads on entry less STACK_MARGIN (read from ram_test.rs), so
+   the frames of its callees must fit in that margin; FAILS otherwise.
 
 Indirect calls (the USB stack's class dispatch) are listed, not followed:
 the bound covers direct calls; what an indirect callee adds is caught by the
 guard as long as its frames are smaller than the guard (check 4).
 """
+import os
+import re
 import sys
 
-sys.path.insert(0, __import__("os").path.dirname(__file__))
+sys.path.insert(0, os.path.dirname(__file__))
 from tick_analysis import disasm, resolve, reach, stack_sizes, worst  # noqa: E402
 
 STACK_SIZE = 32 * 1024
@@ -43,7 +48,14 @@ GUARD = 1024
 FATAL_RESERVE = 1024
 STACK_USABLE = STACK_SIZE - GUARD - FATAL_RESERVE
 FRAME = 104  # exception frame with lazily stacked FP context
-TOP = ("main", "parol6::target::__cortex_m_rt_main")
+# `main` runs the boot RAM test and calls `start` (boot and the main loop):
+# all three at the top of the stack.
+TOP = ("main", "parol6::target::__cortex_m_rt_main", "parol6::target::start")
+# The boot RAM test (firmware/src/target/ram_test.rs) tests the stack below
+# the stack pointer it reads on entry less STACK_MARGIN; its callees must fit
+# in that margin (check 6).
+RAM_TEST = "parol6::target::ram_test::run"
+RAM_TEST_SRC = os.path.join(os.path.dirname(__file__), "..", "src", "target", "ram_test.rs")
 
 
 def main():
@@ -99,6 +111,18 @@ def main():
         fits = v + FRAME <= FATAL_RESERVE
         print(f"fatal path {h}: {v} + {FRAME} exception frame = {v + FRAME} bytes of the {FATAL_RESERVE} below"
               f" the guard ({' -> '.join(p)}){'' if fits else ': FAIL'}")
+        ok &= fits
+    m_src = re.search(r"const STACK_MARGIN: u32 = (\d+);", open(RAM_TEST_SRC).read())
+    if RAM_TEST not in funcs or m_src is None:
+        print(f"boot RAM test: {RAM_TEST} or its STACK_MARGIN not found: FAIL"); ok = False
+    else:
+        margin = int(m_src.group(1))
+        v, p, unknown = worst(funcs, addr_of, sizes, RAM_TEST)
+        own = sizes.get(addr_of.get(RAM_TEST, -1) & ~1, 0)
+        fits = not unknown and v - own < margin
+        print(f"boot RAM test: its callees use {v - own} bytes below the stack pointer it reads"
+              f" ({' -> '.join(p)}), STACK_MARGIN {margin}{'' if fits else ': FAIL'}"
+              f"{f' (no .stack_sizes entry: {sorted(unknown)})' if unknown else ''}")
         ok &= fits
     print("main-stack check:", "PASS" if ok else "FAIL")
     sys.exit(0 if ok else 1)

@@ -47,4 +47,10 @@ impl Twin {
         let (_, &a) = hits.next()?;
         Some(a)
     }
+
+    /// The value of a linker-script symbol of the image (`__sbss`,
+    /// `__estack`, `__svector_table`, ...).
+    pub fn linker_symbol(&self, name: &str) -> Option<u32> {
+        self.image.linker_symbols.get(name).copied()
+    }
 }

@@ -1,65 +1,147 @@
 //! The boot RAM test on the shipped Serial1 image (evidence kind:
-//! **emulated**): a cell of the memory that will hold the tick's state
-//! (`TICK_CTX`) or the main loop's (`HOST`) stuck at 0 or 1 through the
-//! twin's memory hooks; the image must refuse to start:
-//! `FAULT HARDWARE SELF_TEST code=131` (`firmware::code::RAM`) on Serial1,
-//! no tick, no STEP pulse, and again after each watchdog reset.
+//! **emulated**): a cell stuck at 0 or 1 through the twin's memory hooks in
+//! each region the test covers -- the tick's and the main loop's state
+//! (`TICK_CTX`, `HOST`), the command/telemetry queues between them (`LINK`),
+//! the logger's ring, the USB stack's state and buffers, the tick counter,
+//! the vector table in DTCM and the main stack below the test's own frames;
+//! the image must refuse to start: `FAULT HARDWARE SELF_TEST code=131`
+//! (`firmware::code::RAM`) on Serial1, no tick, no STEP pulse, and again
+//! after each watchdog reset.
 
 mod common;
 
+use std::cell::Cell;
+use std::rc::Rc;
+
 use common::{lines, run};
-use twin::boot_twin;
+use twin::pit::IRQ_PIT;
+use twin::{boot_twin, Twin};
 
 const RAM_FAULT: &str = "FAULT HARDWARE SELF_TEST code=131";
 
-/// Cells stuck at 0 and at 1, near the start, inside and near the end of
-/// both statics: each refuses the start within the first boot.
-#[test]
-fn a_stuck_at_cell_fails_the_boot_ram_test_and_the_image_does_not_start() {
-    for (name, offset, bit, value) in [
-        ("TICK_CTX", 0u32, 0u32, true),
-        ("TICK_CTX", 0x400, 17, false),
-        ("HOST", 0x20, 31, true),
-        ("HOST", 0x80, 5, false),
-    ] {
-        let mut t = boot_twin().unwrap();
-        let base = t.static_addr(name).unwrap_or_else(|| panic!("no symbol {name}"));
-        t.stuck_bit(base + offset, bit, value).unwrap();
-        // detection: the fault line complete on Serial1
-        let mut seen = None;
-        for ms in 1..=60 {
-            run(&mut t, ms);
-            if lines(&t).iter().any(|l| l == RAM_FAULT) {
-                seen = Some(ms);
-                break;
-            }
-        }
-        let l = lines(&t);
-        let Some(ms) = seen else { panic!("{name}+{offset:#x} bit {bit} stuck at {value}: no RAM fault: {l:?}") };
-        println!(
-            "RAM test: {name}+{offset:#x} bit {bit} stuck at {value}: fault line complete at {ms} ms after power-on"
-        );
-        run(&mut t, 200);
-        let l = lines(&t);
-        assert!(!l.iter().any(|s| s.starts_with("BOOT") || s == "READY"), "the image started: {l:?}");
-        assert!(l.iter().all(|s| s == RAM_FAULT), "{l:?}");
-        assert_eq!(t.stats.pit_calls, 0, "a tick ran");
-        assert!(t.stats.watchdog_resets >= 1, "no watchdog reset after the refusal");
-        assert!(t.board().main_at.len() >= 2, "not tested again after the reset");
-        assert!(l.len() >= 2, "the refusal is repeated after each reset: {l:?}");
-        assert_eq!(t.board().step_pulses().iter().sum::<u64>(), 0, "a STEP pulse");
+/// Where a stuck cell is injected: a static (a fragment of its mangled
+/// name, `6target4LINK17h` for `parol6::target::LINK`) or a linker symbol,
+/// plus a byte offset.
+#[derive(Clone, Copy, Debug)]
+enum At {
+    Static(&'static str, u32),
+    Linker(&'static str, u32),
+}
+
+fn addr(t: &Twin, at: At) -> u32 {
+    match at {
+        At::Static(name, off) => t.static_addr(name).unwrap_or_else(|| panic!("no symbol {name}")) + off,
+        At::Linker(name, off) => t.linker_symbol(name).unwrap_or_else(|| panic!("no linker symbol {name}")) + off,
     }
 }
 
-/// The same image with healthy RAM passes the test and starts (the first
-/// tick's entry is printed with its time: the RAM test is inside it).
+/// Boots the image with bit `bit` of the word at `at` stuck at `value` and
+/// requires the refusal; returns the time of the complete fault line (ms).
+fn refuses(at: At, bit: u32, value: bool) -> u64 {
+    let mut t = boot_twin().unwrap();
+    let a = addr(&t, at);
+    t.stuck_bit(a, bit, value).unwrap();
+    // detection: the fault line complete on Serial1
+    let mut seen = None;
+    for ms in 1..=60 {
+        run(&mut t, ms);
+        if lines(&t).iter().any(|l| l == RAM_FAULT) {
+            seen = Some(ms);
+            break;
+        }
+    }
+    let l = lines(&t);
+    let Some(ms) = seen else { panic!("{at:?} ({a:#x}) bit {bit} stuck at {value}: no RAM fault: {l:?}") };
+    println!("RAM test: {at:?} ({a:#x}) bit {bit} stuck at {value}: fault line complete at {ms} ms after power-on");
+    run(&mut t, 200);
+    let l = lines(&t);
+    assert!(!l.iter().any(|s| s.starts_with("BOOT") || s == "READY"), "the image started: {l:?}");
+    assert!(l.iter().all(|s| s == RAM_FAULT), "{l:?}");
+    assert_eq!(t.stats.pit_calls, 0, "a tick ran");
+    assert!(t.stats.watchdog_resets >= 1, "no watchdog reset after the refusal");
+    assert!(t.board().main_at.len() >= 2, "not tested again after the reset");
+    assert!(l.len() >= 2, "the refusal is repeated after each reset: {l:?}");
+    assert_eq!(t.board().step_pulses().iter().sum::<u64>(), 0, "a STEP pulse");
+    ms
+}
+
+/// Cells stuck at 0 and at 1, near the start, inside and near the end of
+/// the tick's and the main loop's state: each refuses the start within the
+/// first boot.
+#[test]
+fn a_stuck_at_cell_fails_the_boot_ram_test_and_the_image_does_not_start() {
+    for (at, bit, value) in [
+        (At::Static("TICK_CTX", 0), 0u32, true),
+        (At::Static("TICK_CTX", 0x400), 17, false),
+        (At::Static("HOST", 0x20), 31, true),
+        (At::Static("HOST", 0x80), 5, false),
+    ] {
+        refuses(at, bit, value);
+    }
+}
+
+/// The command and telemetry queues between the main loop and the tick.
+#[test]
+fn a_stuck_at_cell_in_the_command_queues_fails_the_boot_ram_test() {
+    refuses(At::Static("6target4LINK17h", 0x10), 3, true);
+    refuses(At::Static("6target4LINK17h", 0x600), 30, false);
+}
+
+/// The logger's ring and the tick counter.
+#[test]
+fn a_stuck_at_cell_in_the_logger_ring_or_tick_counter_fails_the_boot_ram_test() {
+    refuses(At::Static("6logger4RING17h", 0x800), 12, true);
+    refuses(At::Static("6target5TICKS17h", 0), 0, true);
+}
+
+/// The USB stack's endpoint state, endpoint memory and bus.
+#[test]
+fn a_stuck_at_cell_in_the_usb_state_fails_the_boot_ram_test() {
+    refuses(At::Static("4port8EP_STATE17h", 0x1000), 9, true);
+    refuses(At::Static("4port9EP_MEMORY17h", 0x100), 22, false);
+    refuses(At::Static("4port3BUS17h", 0x8), 1, true);
+}
+
+/// The PIT's entry of the vector table in DTCM (the tick's interrupt
+/// vector, read by the core on every tick).
+#[test]
+fn a_stuck_at_cell_in_the_vector_table_fails_the_boot_ram_test() {
+    refuses(At::Linker("__svector_table", 4 * (16 + IRQ_PIT)), 8, true);
+}
+
+/// The main stack: below the stack guard (the fatal path's kilobyte),
+/// the middle, and 4 KiB below the top (boot's and the main loop's frames).
+#[test]
+fn a_stuck_at_cell_in_the_stack_fails_the_boot_ram_test() {
+    refuses(At::Linker("__estack", 0x100), 4, true);
+    refuses(At::Linker("__estack", 0x4000), 27, false);
+    refuses(At::Linker("__estack", 0x7000), 15, true);
+}
+
+/// The same image with healthy RAM passes the test and starts; the test's
+/// duration is the time from `main` to `start` (boot and the main loop),
+/// which `main` calls right after it.
 #[test]
 fn healthy_ram_passes_the_boot_ram_test() {
     let mut t = boot_twin().unwrap();
+    let start = t.static_addr("6target5start17h").expect("parol6::target::start");
+    let at = Rc::new(Cell::new(None));
+    let seen = at.clone();
+    t.uc.add_code_hook(u64::from(start), u64::from(start), move |uc, _, _| {
+        if seen.get().is_none() {
+            seen.set(Some(uc.get_data().now));
+        }
+    })
+    .unwrap();
     run(&mut t, 60);
     let l = lines(&t);
     assert!(l.iter().any(|s| s == "READY"), "{l:?}");
     assert!(!l.iter().any(|s| s == RAM_FAULT), "{l:?}");
+    let main = *t.board().main_at.first().expect("main");
+    let start = at.get().expect("start not reached");
     let first = t.stats.pit_entries.first().copied().expect("a tick");
-    println!("RAM test passed: main at {:?} cycles, first tick at {first} cycles", t.board().main_at);
+    println!(
+        "RAM test passed: main at {main} cycles, start at {start} cycles (the test: {} cycles), first tick at {first} cycles",
+        start - main
+    );
 }

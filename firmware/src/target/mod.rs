@@ -12,8 +12,8 @@
 //! peripheral instances once, the tick context shared between `main` (init,
 //! before the interrupt is unmasked) and the PIT handler (afterwards), the
 //! queue link, the panic marker, the panic handler's stolen registers and
-//! the MPU's stack-guard registers (and, in `ram_test`, the boot RAM test's word accesses to the statics it
-//! tests before they are built).
+//! the MPU's stack-guard registers (and, in `ram_test`, the boot RAM test's word accesses to the statics,
+//! the vector table and the free stack before anything uses them).
 
 mod logger;
 mod port;
@@ -266,6 +266,18 @@ fn led_on(io: &ral::iomuxc::RegisterBlock, gpio2: &ral::gpio::RegisterBlock) {
 
 #[bsp::rt::entry]
 fn main() -> ! {
+    // --- the boot RAM test (`ram_test`: March C- over every static, the
+    // vector table and the free stack) before anything uses them; its
+    // verdict is acted on once the watchdog runs and Serial1 exists. It runs
+    // here, in a frame of a few bytes, so that the stack it tests reaches up
+    // to just below it: `start`'s frame (a few KiB) is allocated after.
+    let ram = ram_test::run();
+    start(ram)
+}
+
+/// Boot and the main loop; `main` calls it once, after the RAM test.
+#[inline(never)]
+fn start(ram: Result<(), hal_imxrt::pure::march::MarchFailure>) -> ! {
     // --- clocks: teensy4-bsp's policy (ARM 600 MHz, IPG 150 MHz, PLL3 for
     // USB), then the thin HAL's roots (PERCLK, UART_CLK = 24 MHz) and gates.
     let mut inst = board::instances();
@@ -316,6 +328,9 @@ fn main() -> ! {
     let Ok(limits) = Limits::new(&gpios, &MAP) else { halt() };
     let Ok(capture) = FrameCapture::new(inst.TMR1, inst.TMR3, &MAP) else { halt() };
     let mut serial1 = Serial1::new(inst.LPUART6, BAUD);
+    if ram.is_err() {
+        ram_test::refuse(&mut serial1, &inst.IOMUXC);
+    }
     // --- the clock check's reference (32.768 kHz crystal): its first window
     // spans the boot self-test, so the first tick has the boot verdict.
     let clock = ClockCheck::start(inst.GPT2, &inst.CCM, cycles_now);
@@ -363,7 +378,7 @@ fn main() -> ! {
         #[cfg(feature = "tmc5160-spi")]
         drivers,
     };
-    let (host, boot) = init_root(board, marker, reset, &mut serial1, &inst.IOMUXC);
+    let (host, boot) = init_root(board, marker, reset);
 
     // SAFETY: unmasking the PIT interrupt; its handler only uses `TICK_CTX`,
     // which is initialised above. Highest priority (0); Serial1 and USB
@@ -507,13 +522,7 @@ impl MsClock {
 /// are released before the main loop starts. Called once, before the PIT
 /// interrupt is unmasked.
 #[inline(never)]
-fn init_root(
-    mut board: Teensy,
-    marker: u32,
-    reset: ResetCause,
-    serial1: &mut Serial1,
-    io: &ral::iomuxc::RegisterBlock,
-) -> (&'static mut Host<'static>, BootReport) {
+fn init_root(mut board: Teensy, marker: u32, reset: ResetCause) -> (&'static mut Host<'static>, BootReport) {
     // SAFETY: `LINK` is split exactly once, here, before the tick runs; the
     // two ends go to the tick (controller) and the main loop (host).
     let link: &'static mut RootLink = unsafe { &mut *addr_of_mut!(LINK) };
@@ -531,14 +540,6 @@ fn init_root(
     // refresh) comes a full period after the self-test's last refresh,
     // outside the watchdog's window.
     board.tick.restart();
-    // RAM test (March C-) of the memory the tick's and the main loop's state
-    // will occupy, before it is built there. Here, inside the first tick's
-    // period, it moves neither the self-test's samples nor the first tick
-    // (the encoder frames' phase at the kernel's first reading is the same
-    // as without it; see SAFETY.md section 8 on fast MT6816s).
-    if ram_test::run().is_err() {
-        ram_test::refuse(serial1, io);
-    }
     // SAFETY: the PIT interrupt is still masked in the NVIC, so nothing else
     // can observe `TICK_CTX` while it is written.
     unsafe { (*addr_of_mut!(TICK_CTX)).write(TickCtx { controller, board }) };

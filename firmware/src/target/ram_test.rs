@@ -1,32 +1,99 @@
-//! The boot RAM test: March C- (`hal_imxrt::pure::march`) over the memory
-//! that will hold the tick's and the main loop's state (`TICK_CTX`, `HOST`,
-//! in DTCM), while it is still uninitialised: `init_root` runs it after the
-//! boot self-test, before it writes the root there, so it destroys nothing.
-//! (The
-//! runtime's own `__pre_init` belongs to imxrt-rt, which configures the
-//! FlexRAM banks in it, so the test runs from `main` rather than before
-//! `.bss` and `.data` are initialised; the statics it tests are
-//! `MaybeUninit` and meaningless until `init_root` writes them.)
+//! The boot RAM test: March C- (`hal_imxrt::pure::march`, two data
+//! backgrounds) over every writable static of the image and the free part of
+//! the stack, as the first thing `main` does, before any code but the
+//! runtime's start-up has touched them.
 //!
-//! A failing cell refuses the start: no tick, every STEP output still
-//! masked low, `FAULT HARDWARE SELF_TEST code=131` on Serial1, the LED on,
-//! then the watchdog resets the chip and the next boot tests again.
+//! Covered, by construction (linker symbols, not a list of statics):
+//!
+//! - `.bss` (`__sbss..__ebss`, DTCM): every zero-initialised static, so
+//!   every static the tick or the main loop reads or writes: the tick's and
+//!   the main loop's state (`TICK_CTX`, `HOST`), the command/telemetry queues
+//!   between them (`LINK`), the logger's ring, the USB stack's state and
+//!   endpoint buffers, the tick counter, the peripheral-taken flags. Zeroed
+//!   again afterwards, as the runtime left it.
+//! - `.data` (`__sdata..__edata`): every static with a non-zero initial
+//!   value (none in today's image, 0 B); copied again from its flash image
+//!   afterwards.
+//! - the vector table in DTCM (`__svector_table..__evector_table`), which
+//!   the core reads on every exception (the tick's PIT interrupt); copied
+//!   again from its flash image afterwards.
+//! - the main stack below the current stack pointer less [`STACK_MARGIN`]
+//!   (`__estack..SP - STACK_MARGIN`): every byte the boot, the main loop,
+//!   the tick and the fault handlers will use below `main`'s own frame,
+//!   the stack guard's 1 KiB included (the MPU is not on yet).
+//!
+//! `firmware/build.sh` checks on the built ELF that every writable static
+//! lies in `.bss` or `.data` (the only exception is the panic marker in
+//! `.uninit`, below), so a static added later is covered without an edit
+//! here.
+//!
+//! Not covered: the top of the stack (`main`'s frame, this function's frame
+//! and the [`STACK_MARGIN`] the test's own calls use: live while the test
+//! runs); `.uninit` (the 4-byte panic marker in OCRAM: it must survive a
+//! reset, so a destructive test would erase it; the tick never uses it);
+//! `.rodata` in OCRAM (constants copied from flash, which the test's own code
+//! may read while it runs); the code in ITCM (the test runs from it); the
+//! unused heap.
+//!
+//! A failing cell refuses the start: `main` keeps the verdict and, once the
+//! watchdog runs and Serial1 exists, prints `FAULT HARDWARE SELF_TEST
+//! code=131` there, lights the LED and halts with every STEP output masked
+//! low and no tick until the watchdog resets the chip; the next boot tests
+//! again.
 
-use core::mem::size_of_val;
-use core::ptr::addr_of_mut;
+use core::ptr::{addr_of, addr_of_mut};
 
 use hal_imxrt::periph::uart::Serial1;
 use hal_imxrt::pure::march::{self, MarchFailure, Memory};
 
 use super::ral;
 
-use super::{HOST, TICK_CTX};
+/// Bytes left untested below the stack pointer read on entry to [`run`]:
+/// the frames of the test's own calls (`march::test` and its per-element
+/// loop) live there while it runs. The stack-size build shows them at a
+/// few dozen bytes; `firmware/build.sh` checks that `run`'s callees need
+/// less than this (firmware/tools/stack_analysis.py).
+pub(super) const STACK_MARGIN: u32 = 256;
+
+// imxrt-rt's linker script symbols: section bounds and load addresses.
+extern "C" {
+    static mut __sbss: u32;
+    static mut __ebss: u32;
+    static mut __sdata: u32;
+    static mut __edata: u32;
+    static __sidata: u32;
+    static mut __svector_table: u32;
+    static mut __evector_table: u32;
+    static __sivector_table: u32;
+    static mut __estack: u32;
+}
 
 /// A word-aligned region of RAM, accessed only through volatile reads and
 /// writes of its own words.
 struct Region {
     base: *mut u32,
     words: usize,
+}
+
+impl Region {
+    /// The words in `[start, end)` (an empty region if `end < start`).
+    fn between(start: *mut u32, end: *const u32) -> Self {
+        let words = (end as usize).saturating_sub(start as usize) / 4;
+        Region { base: start, words }
+    }
+    /// Every word set to the same word of `from` (`Some`) or to zero.
+    fn fill(&mut self, from: Option<*const u32>) {
+        for i in 0..self.words {
+            let v = match from {
+                // SAFETY: `from` is the region's load image in flash, as
+                // long as the region (the linker's LOADADDR of the same
+                // output section), word-aligned.
+                Some(src) => unsafe { core::ptr::read_volatile(src.add(i)) },
+                None => 0,
+            };
+            self.write(i, v);
+        }
+    }
 }
 
 impl Memory for Region {
@@ -38,8 +105,9 @@ impl Memory for Region {
             return 0;
         }
         // SAFETY: `i < words`, so the word lies inside the region, which
-        // `run` built from one static's own address and size; nothing else
-        // uses that static before `init_root` (see `run`).
+        // `run` built from linker-placed section bounds (or the stack below
+        // the live frames); nothing reads or writes it while the test runs
+        // (see `run`).
         unsafe { core::ptr::read_volatile(self.base.add(i)) }
     }
     fn write(&mut self, i: usize, v: u32) {
@@ -51,29 +119,34 @@ impl Memory for Region {
     }
 }
 
-/// March C- over `TICK_CTX` and `HOST`, each once per data background.
-/// Called once from `init_root` before it writes them, interrupts masked.
-/// Not inlined: its loops stay out of `main`.
+/// March C- over `.bss`, `.data`, the vector table and the free stack, then
+/// each restored to its start-up contents. Called once, as `main`'s first
+/// statement, with no interrupt enabled in the NVIC and the MPU off. Not
+/// inlined: its stack pointer reading is the bound of the tested stack.
 #[inline(never)]
 pub(super) fn run() -> Result<(), MarchFailure> {
-    // SAFETY: only the addresses and sizes are taken here; both statics are
-    // `MaybeUninit`, not yet written (`init_root` writes them after this
-    // test returns) and not referenced by anything else until then, so overwriting
-    // their bytes with test patterns destroys nothing. Both are at least
-    // word-aligned (they contain `u32` fields), and the region covers whole
-    // words inside each static only.
-    let regions = unsafe {
-        let t = addr_of_mut!(TICK_CTX);
-        let h = addr_of_mut!(HOST);
-        [
-            Region { base: t.cast::<u32>(), words: size_of_val(&*t) / 4 },
-            Region { base: h.cast::<u32>(), words: size_of_val(&*h) / 4 },
-        ]
-    };
-    for mut r in regions {
-        march::test(&mut r)?;
-    }
-    Ok(())
+    let sp = cortex_m::register::msp::read();
+    // Only addresses are taken here (the accesses are `Region`'s). No code
+    // but the runtime's start-up (which zeroed `.bss`, copied `.data` and
+    // the vector table) has run, so no static has been read or written yet
+    // and no reference to one exists; the stack below `sp - STACK_MARGIN`
+    // holds no live frame (the test's own calls stay above it,
+    // `STACK_MARGIN`); no interrupt is enabled, so the vector table is not
+    // read unless the test itself faults. Each region is restored below
+    // before `main` goes on.
+    let mut bss = Region::between(addr_of_mut!(__sbss), addr_of!(__ebss));
+    let mut data = Region::between(addr_of_mut!(__sdata), addr_of!(__edata));
+    let mut vectors = Region::between(addr_of_mut!(__svector_table), addr_of!(__evector_table));
+    let mut stack = Region::between(addr_of_mut!(__estack), sp.saturating_sub(STACK_MARGIN) as *const u32);
+    let verdict = march::test(&mut bss)
+        .and_then(|()| march::test(&mut data))
+        .and_then(|()| march::test(&mut vectors))
+        .and_then(|()| march::test(&mut stack));
+    bss.fill(None);
+    data.fill(Some(addr_of!(__sidata)));
+    vectors.fill(Some(addr_of!(__sivector_table)));
+    cortex_m::asm::dsb();
+    verdict
 }
 
 /// The refusal: the fault line on Serial1 (`firmware::RAM_FAULT_LINE`,
