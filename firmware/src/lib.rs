@@ -134,8 +134,8 @@ pub mod code {
     /// (at boot or in any later one-second window; reported on every tick
     /// from then on, so `<ENABLE>` stays refused until a reset).
     pub const CLOCK: u8 = 0x82;
-    /// The boot RAM test (March C-) found a failing cell in the memory of
-    /// the tick's and the main loop's state: the image does not start (no
+    /// The boot RAM test (March C-) found a failing cell in the image's
+    /// statics, its vector table or its free stack: the image does not start (no
     /// tick; the line is written once per boot, then the watchdog resets).
     pub const RAM: u8 = 0x83;
 }
