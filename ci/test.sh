@@ -89,14 +89,15 @@ if [ "${QUICK:-0}" != "1" ]; then
 
     # The kernel carries continuous state (set-point
     # velocities, following-error paths, homing ramps) and the full model no
-    # longer finishes: it is explored breadth first for 150 s (a bounded
-    # exploration: sampled evidence; it must still reach every 'sometimes'
-    # property); the reduced configurations (Kernel<Fx> small and homing,
-    # Kernel<f32> tiny) run to completion (model-checked). Any property
-    # violated in an explored state fails the step. The mutants: one per
-    # model-checked requirement.
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full bounded 150 s, small, homing and tiny to completion; 16 kernel mutants)"
-    cargo run -p model --release --locked -- --bounded 150
+    # longer finishes: it is explored breadth first on one thread to depth
+    # 44, every path of up to 42 ticks from power-on, whatever the machine's
+    # load (a bounded exploration: sampled evidence; it must still reach
+    # every 'sometimes' property); the reduced configurations (Kernel<Fx>
+    # small and homing, Kernel<f32> tiny) run to completion (model-checked).
+    # Any property violated in an explored state fails the step. The
+    # mutants: one per model-checked requirement.
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full to depth 44 (every 42-tick path), small, homing and tiny to completion; 16 kernel mutants)"
+    cargo run -p model --release --locked -- --depth 44
     proofs/model/mutants.sh
 
     step "parser: integer decimal conversion equals the reference parser (every mantissa per field; protocol/tests/decimal_exhaustive.rs)"
