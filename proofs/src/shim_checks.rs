@@ -180,3 +180,51 @@ fn a_harness_beyond_its_stated_footprint_fails() {
     .expect_err("two ticks against one stated");
     assert!(e.contains("runs a tick beyond the 1"), "{e}");
 }
+
+/// Every `kani::cover!` in the harness sources is written in a function
+/// the shim instruments (`#[kani::proof]` or `kani::loops`), so that it is
+/// declared, hence required, whenever its function is entered, also when
+/// its own line never runs. (A cover elsewhere fails its harness only when
+/// it is reached.) What remains outside the shim's reach: a helper that no
+/// case of a harness ever enters; real Kani with `--fail-uncoverable`
+/// reports its covers UNREACHABLE.
+#[test]
+fn every_cover_is_in_an_instrumented_function() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut covers = 0;
+    let mut bare = Vec::new();
+    for entry in std::fs::read_dir(&dir).expect("harness sources") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|x| x != "rs") || path.ends_with("shim_checks.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("harness source");
+        let lines: Vec<&str> = text.lines().collect();
+        // The attributes of the function each line is in.
+        let mut instrumented = false;
+        let mut current = String::new();
+        for (n, line) in lines.iter().enumerate() {
+            let t = line.trim_start();
+            let is_fn = ["fn ", "pub fn ", "pub(crate) fn "].iter().any(|p| t.starts_with(p));
+            if is_fn && !line.starts_with("    ") {
+                current = t.split('(').next().unwrap_or(t).to_string();
+                instrumented = lines[..n]
+                    .iter()
+                    .rev()
+                    .take_while(|l| {
+                        let l = l.trim_start();
+                        l.starts_with("#[") || l.starts_with("//")
+                    })
+                    .any(|l| l.contains("#[kani::proof]") || l.contains("kani::loops"));
+            }
+            if t.contains("kani::cover!") && !t.starts_with("//") {
+                covers += 1;
+                if !instrumented {
+                    bare.push(format!("{}:{} in {current}", path.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(covers >= 20, "only {covers} covers found in {}", dir.display());
+    assert!(bare.is_empty(), "covers in functions the shim does not instrument: {bare:?}");
+}
