@@ -3,7 +3,7 @@
 #
 #   firmware/build.sh            # release image + sizes + tick stack + panic check + main-stack bound + reproducibility
 #   FEATURES=serial1 firmware/build.sh   # protocol on Serial1 (pins 0/1) instead of USB CDC
-#   SKIP_REPRO=1 firmware/build.sh       # skip the determinism check (re-links, second directory)
+#   SKIP_REPRO=1 firmware/build.sh       # skip the determinism check (re-links, second directory; 0, the default, runs it)
 #   REPRO_RELINKS=10 firmware/build.sh   # re-link the image 10 times instead of 5
 #   SKIP_STACK=1 firmware/build.sh       # skip the nightly stack-size build (second image of one test run)
 #
@@ -13,6 +13,10 @@
 # this machine, or if any re-link or the build in a second directory gives a
 # different .elf or .hex.
 set -euo pipefail
+# The switches are 0 (the default) or 1; anything else is a usage error
+# before anything is built (SKIP_REPRO=0 must not skip the check).
+case "${SKIP_REPRO:-0}" in 0 | 1) ;; *) echo "build.sh: SKIP_REPRO must be 0 or 1, not '$SKIP_REPRO'" >&2; exit 2 ;; esac
+case "${SKIP_STACK:-0}" in 0 | 1) ;; *) echo "build.sh: SKIP_STACK must be 0 or 1, not '$SKIP_STACK'" >&2; exit 2 ;; esac
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$ROOT"
 TARGET=thumbv7em-none-eabihf
@@ -37,8 +41,12 @@ HOST="$(rustc +"$TC" -vV | sed -n 's/^host: //p')"
 BIN="$(rustc +"$TC" --print sysroot)/lib/rustlib/$HOST/bin"
 OBJCOPY="$BIN/llvm-objcopy"; SIZE="$BIN/llvm-size"; OBJDUMP="$BIN/llvm-objdump"
 HAVE_NIGHTLY=0
-if rustup run nightly rustc -V >/dev/null 2>&1 || rustup toolchain install nightly --profile minimal >/dev/null 2>&1; then
-  rustup target add --toolchain nightly "$TARGET" >/dev/null 2>&1 && HAVE_NIGHTLY=1
+NIGHTLY=""
+# The nightly is the project's pinned one (ci/nightly.sh), so the stack
+# figures come from the same compiler on every machine.
+# shellcheck source=ci/nightly.sh
+if . "$ROOT/ci/nightly.sh" >/dev/null 2>&1; then
+  rustup target add --toolchain "$NIGHTLY" "$TARGET" >/dev/null 2>&1 && HAVE_NIGHTLY=1
 fi
 
 # Image-only profile settings (image size): code that runs only in
@@ -167,12 +175,12 @@ python3 "$ROOT/firmware/tools/size_by_crate.py" "$BIN/llvm-nm" "$OUT/parol6.elf"
 
 echo "== tick handler: panic paths and stack"
 STACK_ELF=""
-if [ -n "${SKIP_STACK:-}" ]; then
+if [ "${SKIP_STACK:-0}" = 1 ]; then
   echo "(SKIP_STACK: stack not measured)"
 elif [ "$HAVE_NIGHTLY" = 1 ]; then
   SDIR="$CARGO_TARGET_DIR/stack-sizes"
   if CARGO_TARGET_DIR="$SDIR" RUSTFLAGS="-Z emit-stack-sizes" \
-       cargo +nightly build --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
+       cargo +"$NIGHTLY" build --release "${IMAGE_PROFILE[@]}" -p firmware --bin parol6 --target "$TARGET" \
          ${FEATURES:+--features "$FEATURES"} >/dev/null 2>"$OUT/stack-build.log"; then
     STACK_ELF="$SDIR/$TARGET/release/parol6"
   else
@@ -238,7 +246,7 @@ if [ -n "$LEAKS" ]; then echo "FAIL: the ELF names paths of this machine:"; echo
 # below are what catch the next one (the by-value form fails them).
 REPRO_RC=0
 REPRO_RELINKS="${REPRO_RELINKS:-5}"
-if [ -z "${SKIP_REPRO:-}" ]; then
+if [ "${SKIP_REPRO:-0}" = 0 ]; then
   ELF_REF="$(sha256sum <"$OUT/parol6.elf" | cut -c1-64)"
   HEX_REF="$(sha256sum <"$OUT/parol6.hex" | cut -c1-64)"
   echo "reference: elf ${ELF_REF:0:16} hex ${HEX_REF:0:16}"
