@@ -5,10 +5,7 @@ use crate::numeric::{any_mostly_in, any_target};
 use crate::setup::{here, operational, still, target, Checked, Sym, COUNTS, PROOF_CONFIG};
 use kernel::config::AXES;
 use kernel::homing::Phase;
-use kernel::{
-    EncoderSample, Event, FaultReason, Fx, HardwareFault, Reject, Request, RequestKind, Scalar, Sense, State,
-    TickOutput,
-};
+use kernel::{EncoderSample, Event, FaultReason, Fx, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput};
 
 /// Sensors that may differ from the stationary arm in any way: a count may
 /// be lost, jump, or move a little; switches and hardware faults are free.
@@ -33,7 +30,7 @@ fn any_sense() -> Sense {
         };
     }
     if kani::any::<u8>() == 0 {
-        s.hardware_fault = Some(HardwareFault::TickOverrun);
+        s.hardware_fault = Some(crate::setup::any_hardware_fault());
     }
     s
 }
@@ -72,13 +69,13 @@ fn operational_tick<S: Sym>() {
     );
 }
 
-/// Footprint: 43 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
+/// Footprint: 49 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; kernel, monitor and any_sense: 6 axes (7)
 fn operational_tick_is_safe_f32() {
     operational_tick::<f32>();
 }
-/// Footprint: 43 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
+/// Footprint: 49 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn operational_tick_is_safe_fx() {
@@ -284,13 +281,13 @@ fn enable<S: Sym>() {
     }
 }
 
-/// Footprint: 16 symbolic values, 29 ticks (the switch and one sensor reading).
+/// Footprint: 19 symbolic values, 29 ticks (the switch and one sensor reading).
 #[kani::proof]
 #[kani::unwind(26)] // setup::run_homing: 25 ticks; any_sense, kernel, monitor: 6 axes
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
     enable::<f32>();
 }
-/// Footprint: 16 symbolic values, 29 ticks (the switch and one sensor reading).
+/// Footprint: 19 symbolic values, 29 ticks (the switch and one sensor reading).
 #[kani::proof]
 #[kani::unwind(26)] // as the f32 harness
 fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {

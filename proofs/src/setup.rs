@@ -15,7 +15,10 @@
 
 use kernel::config::{ArmConfig, Validated, AXES, PAROL6};
 use kernel::homing::Phase;
-use kernel::{Authority, EncoderSample, Kernel, MotionKind, MotionTarget, Request, Scalar, Sense, State, TickOutput};
+use kernel::{
+    Authority, DriverCause, EncoderSample, HardwareFault, Kernel, MotionKind, MotionTarget, Request, Scalar, Sense,
+    State, TickOutput,
+};
 use monitor::{Monitor, Sent};
 
 /// `PAROL6` with zero homing back-off, switches 0.01 rad inside the limits
@@ -122,6 +125,40 @@ pub const COUNTS: [u16; AXES] = [1000, 2000, 3000, 500, 1500, 2500];
 /// Sensors of a stationary arm with the given switches pressed.
 pub fn still(limits: u8) -> Sense {
     Sense { encoders: COUNTS.map(EncoderSample::Count), limits, hardware_fault: None, link_lost: false }
+}
+
+/// Every cause a driver's diagnostics can report (checked complete by
+/// `tests::every_hardware_fault_kind_can_be_drawn`).
+pub const DRIVER_CAUSES: [DriverCause; 9] = [
+    DriverCause::Missing,
+    DriverCause::WrongVersion,
+    DriverCause::Reset,
+    DriverCause::DriverError,
+    DriverCause::ChargePump,
+    DriverCause::Overtemperature,
+    DriverCause::ShortToGround,
+    DriverCause::ShortToSupply,
+    DriverCause::OpenLoad,
+];
+
+/// The hardware fault of kind `kind % 4` (a tick overrun, a refused step
+/// rate of axis `n`, a self-test code `n`, a driver diagnostic of axis `n`
+/// with cause `cause`).
+pub fn hardware_fault(kind: u8, n: u8, cause: u8) -> HardwareFault {
+    match kind % 4 {
+        0 => HardwareFault::TickOverrun,
+        1 => HardwareFault::Driver { axis: n % AXES as u8 },
+        2 => HardwareFault::SelfTest(n),
+        _ => HardwareFault::DriverDiagnostic {
+            axis: n % AXES as u8,
+            cause: DRIVER_CAUSES[usize::from(cause) % DRIVER_CAUSES.len()],
+        },
+    }
+}
+
+/// Any hardware fault, of every kind (3 symbolic values).
+pub fn any_hardware_fault() -> HardwareFault {
+    hardware_fault(kani::any(), kani::any(), kani::any())
 }
 
 /// A scalar the harnesses can draw symbolically.
@@ -237,6 +274,39 @@ pub fn target<S: Scalar>(p: [S; AXES]) -> MotionTarget<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every `HardwareFault` and `DriverCause` variant comes out of
+    /// [`hardware_fault`] for some draw (the matches have no wildcard: a new
+    /// variant does not compile until it is drawn).
+    #[test]
+    fn every_hardware_fault_kind_can_be_drawn() {
+        let mut seen = std::collections::BTreeSet::new();
+        for kind in 0..4u8 {
+            for cause in 0..DRIVER_CAUSES.len() as u8 {
+                let f = hardware_fault(kind, 1, cause);
+                let id = match f {
+                    HardwareFault::TickOverrun => 0,
+                    HardwareFault::Driver { .. } => 1,
+                    HardwareFault::SelfTest(_) => 2,
+                    HardwareFault::DriverDiagnostic { cause, .. } => {
+                        3 + match cause {
+                            DriverCause::Missing => 0,
+                            DriverCause::WrongVersion => 1,
+                            DriverCause::Reset => 2,
+                            DriverCause::DriverError => 3,
+                            DriverCause::ChargePump => 4,
+                            DriverCause::Overtemperature => 5,
+                            DriverCause::ShortToGround => 6,
+                            DriverCause::ShortToSupply => 7,
+                            DriverCause::OpenLoad => 8,
+                        }
+                    }
+                };
+                seen.insert(id);
+            }
+        }
+        assert_eq!(seen.len(), 3 + DRIVER_CAUSES.len(), "{seen:?}");
+    }
 
     #[test]
     fn kernel_dependencies_match_the_seed() {

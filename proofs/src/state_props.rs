@@ -34,8 +34,8 @@ use crate::numeric::any_target;
 use crate::setup::{kernel_loops, Sym};
 use kernel::config::{ms_to_ticks, AXES, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
 use kernel::{
-    Authority, AxisSpec, EncoderSample, Event, FaultReason, HardwareFault, Kernel, Request, RequestKind, Scalar, Sense,
-    SpecMode, State, StateSpec,
+    Authority, AxisSpec, EncoderSample, Event, FaultReason, Kernel, Request, RequestKind, Scalar, Sense, SpecMode,
+    State, StateSpec,
 };
 
 /// Ticks of the soft-stop ramp (`Params::new`).
@@ -275,7 +275,11 @@ fn any_sense<S>(spec: &StateSpec<S>, scope: Scope) -> Sense {
         encoders,
         // Mostly no switch, so that the other antecedents are sampled too.
         limits: if kani::any() { 0 } else { kani::any() },
-        hardware_fault: if kani::any::<u8>().is_multiple_of(8) { Some(HardwareFault::TickOverrun) } else { None },
+        hardware_fault: if kani::any::<u8>().is_multiple_of(8) {
+            Some(crate::setup::any_hardware_fault())
+        } else {
+            None
+        },
         link_lost: kani::any::<u8>().is_multiple_of(8),
     }
 }
@@ -437,21 +441,21 @@ fn initial_state_satisfies_the_invariant() {
     assert!(Kernel::<kernel::Fx>::new(&PAROL6_VALIDATED).0.invariant());
 }
 
-/// Footprint: 113 symbolic values, 1 tick (the state (83), sensors (17), request (13)).
+/// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_operational_state_f32() {
     let r = step::<f32>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
-/// Footprint: 113 symbolic values, 1 tick (the state (83), sensors (17), request (13)).
+/// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_operational_state_fx() {
     let r = step::<kernel::Fx>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
-/// Footprint: 120 symbolic values, 1 tick (the state (90), sensors (17), request (13)).
+/// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_stopping_state_f32() {
@@ -459,7 +463,7 @@ fn from_any_stopping_state_f32() {
     kani::cover!(r.ramp_end, "the ramp's last tick");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 120 symbolic values, 1 tick (the state (90), sensors (17), request (13)).
+/// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_stopping_state_fx() {
@@ -467,7 +471,7 @@ fn from_any_stopping_state_fx() {
     kani::cover!(r.ramp_end, "the ramp's last tick");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 110 symbolic values, 1 tick (the state (80), sensors (17), request (13)).
+/// Footprint: 113 symbolic values, 1 tick (the state (80), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_any_latched_or_unhomed_state_f32() {
@@ -476,7 +480,7 @@ fn from_any_latched_or_unhomed_state_f32() {
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 110 symbolic values, 1 tick (the state (80), sensors (17), request (13)).
+/// Footprint: 113 symbolic values, 1 tick (the state (80), sensors (20), request (13)).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_any_latched_or_unhomed_state_fx() {
@@ -490,22 +494,22 @@ fn from_any_latched_or_unhomed_state_fx() {
 // index, that axis's state, reading and target, and the shared state
 // (mode, counters, switches, hardware fault, link, request kind).
 
-/// Footprint: 34 symbolic values, 1 tick (the axis index, the shared
-/// state (11), the axis (12), sensors (7), request (3); `Scope::OneAxis`).
+/// Footprint: 37 symbolic values, 1 tick (the axis index, the shared
+/// state (11), the axis (12), sensors (10), request (3); `Scope::OneAxis`).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_one_axis_operational_state_f32() {
     let r = step::<f32>(Draw::Operational, one_axis());
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
-/// Footprint: 34 symbolic values, 1 tick (as the f32 harness).
+/// Footprint: 37 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_one_axis_operational_state_fx() {
     let r = step::<kernel::Fx>(Draw::Operational, one_axis());
     kani::cover!(r.output_changed, "an operational tick that changes an output");
 }
-/// Footprint: 36 symbolic values, 1 tick (the operational draw, the
+/// Footprint: 39 symbolic values, 1 tick (the operational draw, the
 /// axis's ramp start speed and the track flag).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
@@ -514,7 +518,7 @@ fn from_one_axis_stopping_state_f32() {
     kani::cover!(r.ramp_end, "the ramp's last tick");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
+/// Footprint: 39 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_one_axis_stopping_state_fx() {
@@ -522,9 +526,9 @@ fn from_one_axis_stopping_state_fx() {
     kani::cover!(r.ramp_end, "the ramp's last tick");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 36 symbolic values, 1 tick (the shared state, the mode and
+/// Footprint: 39 symbolic values, 1 tick (the shared state, the mode and
 /// reason, the homed mask (14), the axis without a last output (11),
-/// sensors (7), request (3), the axis index).
+/// sensors (10), request (3), the axis index).
 #[kani::proof]
 #[kani::unwind(7)] // any_state, any_sense and the kernel: six axes (see the module)
 fn from_one_axis_latched_or_unhomed_state_f32() {
@@ -533,7 +537,7 @@ fn from_one_axis_latched_or_unhomed_state_f32() {
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
 }
-/// Footprint: 36 symbolic values, 1 tick (as the f32 harness).
+/// Footprint: 39 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
 #[kani::unwind(7)] // as the f32 harness
 fn from_one_axis_latched_or_unhomed_state_fx() {
