@@ -27,15 +27,21 @@
 //! fails a case that exceeds either (`kani::runner::Footprint`); its report
 //! line gives the largest seen. Draws that only steer the shim's sampling
 //! (`kani::runner::hint`, in `#[cfg(not(kani))]` code) are no symbolic
-//! values. Floating point: an `_f32` harness's kernel arithmetic is `f32`
-//! throughout (Kani bit-blasts each operation); an `_fx` harness's kernel
-//! arithmetic is integer, and every checked tick adds the monitor's checks
-//! (which compare in `f64`) in both variants.
+//! values. Floating point: a kernel tick runs 868-1282 scalar operations
+//! (arithmetic, min/max, comparisons; idle 894, accepting a target 1282,
+//! moving 868, soft stop 1001: `cargo test -p proofs --lib
+//! float_operations_per_tick -- --nocapture`, which fails above 1500), so
+//! a harness's floating-point footprint is about its ticks times that. In
+//! an `_f32` harness each is an `f32` operation (Kani bit-blasts it); in
+//! an `_fx` harness each is integer arithmetic; in both, every checked
+//! tick adds the monitor's checks, which compare in `f64`.
 
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 
 pub mod setup;
 
+#[cfg(all(test, not(kani)))]
+mod float_ops;
 #[cfg(any(kani, test))]
 mod kernel_props;
 #[cfg(any(kani, test))]
