@@ -1,8 +1,8 @@
 //! A census of the explored states (`--census`): how many unique states
 //! each kernel state, homed mask and tuple of homing phases holds, to show
-//! where a configuration's state space lies (the full configuration's is
-//! almost all in homing runs). Off unless asked for: it takes a lock per
-//! transition.
+//! where a configuration's state space lies (the full configuration's in
+//! homing runs and, once homed, in the set-points' trajectories and
+//! soft-stop ramps). Off unless asked for: it takes a lock per transition.
 
 use crate::identity::ModelScalar;
 use crate::state::St;

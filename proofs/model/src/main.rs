@@ -50,14 +50,17 @@
 //!   documented relaxations, tested by
 //!   `config::tests::model_config_relaxes_exactly_the_named_rules`: zero homing
 //!   back-off (a stationary arm never travels one), 8 ms homing timeouts
-//!   and a 4 ms soft-stop ramp (faster than `max_acceleration`, PAROL6's).
+//!   (the shortest with which a run homes,
+//!   `config::tests::the_homing_timeout_is_the_shortest_that_homes`) and a
+//!   4 ms soft-stop ramp (faster than `max_acceleration`, PAROL6's).
 //!   The kernel's continuous state (set-point velocities,
 //!   following-error paths, homing ramps) keeps the model from finishing:
 //!   the test command runs it bounded (`--depth 44`: every path of up to 42
 //!   ticks from power-on; sampled evidence).
-//!   `--census` shows where its states lie: almost all in homing runs, as
-//!   the product of the last group's three per-axis homing histories
-//!   (SAFETY.md gives the figures).
+//!   `--census` shows where its states lie: in homing runs, as the product
+//!   of the last group's three per-axis homing histories, and once homed in
+//!   the set-points' trajectories and soft-stop ramps (SAFETY.md gives the
+//!   figures).
 //! - The full configuration, to fit its time budget, explores during homing
 //!   (where every request is refused) only no request and one motion
 //!   request, and only four perturbations (none, J1 lost, hardware fault,
