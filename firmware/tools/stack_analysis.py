@@ -28,9 +28,10 @@ direct-call graph (tick_analysis.py's disassembly), this prints:
    the guard, 4), and the handler runs with the MPU off, so it has the
    guard's kilobyte and the one below; FAILS if it needs more than the
    kilobyte below (FATAL_RESERVE), the room it has in the worst case;
-6. the boot RAM test's own calls: it tests the stack below the stack
-   pointer it reads on entry less STACK_MARGIN (read from ram_test.rs), so
-   the frames of its callees must fit in that margin; FAILS otherwise.
+6. the RAM tests' own calls (the boot test and the run-time step): each
+   tests the stack below the stack pointer it reads less STACK_MARGIN (read
+   from ram_test.rs), so the frames of its callees must fit in that margin;
+   FAILS otherwise.
 
 Indirect calls (the USB stack's class dispatch) are listed, not followed:
 the bound covers direct calls; what an indirect callee adds is caught by the
@@ -51,10 +52,10 @@ FRAME = 104  # exception frame with lazily stacked FP context
 # `main` runs the boot RAM test and calls `start` (boot and the main loop):
 # all three at the top of the stack.
 TOP = ("main", "parol6::target::__cortex_m_rt_main", "parol6::target::start")
-# The boot RAM test (firmware/src/target/ram_test.rs) tests the stack below
-# the stack pointer it reads on entry less STACK_MARGIN; its callees must fit
-# in that margin (check 6).
-RAM_TEST = "parol6::target::ram_test::run"
+# The RAM tests (firmware/src/target/ram_test.rs) test the stack below the
+# stack pointer they read less STACK_MARGIN; their callees must fit in that
+# margin (check 6).
+RAM_TEST = ("parol6::target::ram_test::run", "<parol6::target::ram_test::RunTimeTest>::step")
 RAM_TEST_SRC = os.path.join(os.path.dirname(__file__), "..", "src", "target", "ram_test.rs")
 
 
@@ -113,14 +114,15 @@ def main():
               f" the guard ({' -> '.join(p)}){'' if fits else ': FAIL'}")
         ok &= fits
     m_src = re.search(r"const STACK_MARGIN: u32 = (\d+);", open(RAM_TEST_SRC).read())
-    if RAM_TEST not in funcs or m_src is None:
-        print(f"boot RAM test: {RAM_TEST} or its STACK_MARGIN not found: FAIL"); ok = False
-    else:
+    for fn in RAM_TEST:
+        if fn not in funcs or m_src is None:
+            print(f"RAM test: {fn} or STACK_MARGIN not found: FAIL"); ok = False
+            continue
         margin = int(m_src.group(1))
-        v, p, unknown = worst(funcs, addr_of, sizes, RAM_TEST)
-        own = sizes.get(addr_of.get(RAM_TEST, -1) & ~1, 0)
+        v, p, unknown = worst(funcs, addr_of, sizes, fn)
+        own = sizes.get(addr_of.get(fn, -1) & ~1, 0)
         fits = not unknown and v - own < margin
-        print(f"boot RAM test: its callees use {v - own} bytes below the stack pointer it reads"
+        print(f"RAM test {fn}: its callees use {v - own} bytes below the stack pointer it reads"
               f" ({' -> '.join(p)}), STACK_MARGIN {margin}{'' if fits else ': FAIL'}"
               f"{f' (no .stack_sizes entry: {sorted(unknown)})' if unknown else ''}")
         ok &= fits

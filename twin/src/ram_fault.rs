@@ -36,8 +36,12 @@ impl Twin {
         // spanning it) are seen too
         self.uc
             .add_mem_hook(HookType::MEM_READ, word.saturating_sub(60), word + 3, force)
-            .map(|_| ())
-            .map_err(|e| format!("unicorn: {e:?}"))
+            .map_err(|e| format!("unicorn: {e:?}"))?;
+        // A cell that fails while the image runs: code translated before
+        // the hook, and its cached address translations, would not see it;
+        // both caches are dropped so every later read goes through the hook.
+        self.uc.ctl_flush_tb().map_err(|e| format!("unicorn: {e:?}"))?;
+        self.uc.ctl_flush_tlb().map_err(|e| format!("unicorn: {e:?}"))
     }
 
     /// The address of the image's static whose symbol contains `name`

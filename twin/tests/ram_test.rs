@@ -145,3 +145,38 @@ fn healthy_ram_passes_the_boot_ram_test() {
         start - main
     );
 }
+
+/// The run-time RAM test (`ram_test::RunTimeTest`): a stack cell that
+/// fails during operation (stuck at 1 from 100 ms after power-on, 4 KiB
+/// above the stack's bottom, deeper than the tick and the main loop reach)
+/// is found by the main loop's incremental March C- within one round of the
+/// free stack: the fatal stop (every STEP output low), the watchdog reset,
+/// then the boot RAM test refuses the start.
+#[test]
+fn a_cell_failing_in_operation_fails_the_run_time_ram_test() {
+    let mut t = boot_twin().unwrap();
+    let stop = t.static_addr("6target10fatal_stop17h").expect("parol6::target::fatal_stop");
+    let at = Rc::new(Cell::new(None));
+    let seen = at.clone();
+    t.uc.add_code_hook(u64::from(stop), u64::from(stop), move |uc, _, _| {
+        if seen.get().is_none() {
+            seen.set(Some(uc.get_data().now));
+        }
+    })
+    .unwrap();
+    run(&mut t, 100);
+    assert!(lines(&t).iter().any(|s| s == "READY"), "{:?}", lines(&t));
+    let injected = t.now();
+    let cell = t.linker_symbol("__estack").expect("__estack") + 0x1000;
+    t.stuck_bit(cell, 6, true).unwrap();
+    run(&mut t, 1600);
+    let stopped = at.get().unwrap_or_else(|| panic!("no fatal stop: {:?}", lines(&t)));
+    let ms = (stopped - injected) as f64 / twin::MS as f64;
+    println!("run-time RAM test: cell {cell:#x} bit 6 stuck at 1 from {injected} cycles: fatal stop {ms:.1} ms later");
+    assert!(ms < 1200.0, "detection took {ms} ms");
+    let l = lines(&t);
+    assert!(t.stats.watchdog_resets >= 1, "no watchdog reset after the stop");
+    assert!(l.iter().any(|s| s == RAM_FAULT), "the boot RAM test after the reset: {l:?}");
+    let started = l.iter().filter(|s| s.starts_with("BOOT")).count();
+    assert_eq!(started, 1, "the image started again after the reset: {l:?}");
+}

@@ -408,6 +408,7 @@ fn start(ram: Result<(), hal_imxrt::pure::march::MarchFailure>) -> ! {
         boot.encoder_fail
     );
     let mut drain = [0u8; 64];
+    let mut ram_check = ram_test::RunTimeTest::new();
     loop {
         let seen = TICKS.load(Ordering::Relaxed);
         let now_ms = clock.now_ms(cycles_now());
@@ -420,6 +421,12 @@ fn start(ram: Result<(), hal_imxrt::pure::march::MarchFailure>) -> ! {
             log.write_raw(drain.get(..n).unwrap_or(&[]));
         }
         log.flush();
+        // the run-time RAM test (`ram_test::RunTimeTest`): the next block of
+        // the free stack; a failing cell stops the arm as a panic would, and
+        // the boot RAM test after the watchdog reset refuses the start.
+        if ram_check.step().is_err() {
+            fatal_stop()
+        }
         // `teensy_loader_cli -s`: the USB line set to 134 baud asks for
         // the bootloader; honoured only at rest, else refused on the wire.
         #[cfg(not(feature = "serial1"))]

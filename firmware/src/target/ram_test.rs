@@ -40,6 +40,10 @@
 //! code=131` there, lights the LED and halts with every STEP output masked
 //! low and no tick until the watchdog resets the chip; the next boot tests
 //! again.
+//!
+//! During operation [`RunTimeTest`] tests the free stack again, a block per
+//! main-loop pass (the memory the tick's interrupt frames and calls use;
+//! the statics are in use and are not tested again at run time).
 
 use core::ptr::{addr_of, addr_of_mut};
 
@@ -106,8 +110,9 @@ impl Memory for Region {
         }
         // SAFETY: `i < words`, so the word lies inside the region, which
         // `run` built from linker-placed section bounds (or the stack below
-        // the live frames); nothing reads or writes it while the test runs
-        // (see `run`).
+        // the live frames), or `RunTimeTest::step` from a block of the stack
+        // below the live frames and outside the guard; nothing reads or
+        // writes it while the test runs (see `run`, `step`).
         unsafe { core::ptr::read_volatile(self.base.add(i)) }
     }
     fn write(&mut self, i: usize, v: u32) {
@@ -147,6 +152,53 @@ pub(super) fn run() -> Result<(), MarchFailure> {
     vectors.fill(Some(addr_of!(__sivector_table)));
     cortex_m::asm::dsb();
     verdict
+}
+
+/// Words of the free stack [`RunTimeTest::step`] tests per call.
+pub(super) const RUN_WORDS: u32 = 8;
+
+/// The run-time RAM test: March C- (both backgrounds) over [`RUN_WORDS`]
+/// words of the free stack per main-loop pass, with interrupts masked, the
+/// next block each pass, round the stack below the main loop's frames
+/// (`__estack..SP - STACK_MARGIN`, the stack guard skipped), so every cell
+/// of the stack the tick's interrupt frames and its calls will use is tested
+/// again during operation. Nothing lives below the stack pointer and the
+/// tick cannot run while the block is tested, so the test needs no copy of
+/// the block. An idle main loop passes once per tick (the tick ends its
+/// WFI), so a round then takes (stack words / `RUN_WORDS`) ticks; a busy
+/// one passes more often.
+pub(super) struct RunTimeTest {
+    next: u32,
+}
+
+impl RunTimeTest {
+    pub(super) const fn new() -> Self {
+        Self { next: 0 }
+    }
+
+    /// Tests the next block; `Err` on a failing cell. Not inlined: its
+    /// stack pointer reading bounds the block (`stack_analysis.py` checks
+    /// its callees against `STACK_MARGIN`, as for `run`).
+    #[inline(never)]
+    pub(super) fn step(&mut self) -> Result<(), MarchFailure> {
+        use hal_imxrt::pure::mpu::{GUARD_BASE, GUARD_SIZE};
+        let bytes = RUN_WORDS * 4;
+        cortex_m::interrupt::free(|_| {
+            let top = cortex_m::register::msp::read().saturating_sub(STACK_MARGIN);
+            let bottom = addr_of!(__estack) as u32;
+            let mut at = self.next.max(bottom);
+            // the guard is no-access (MPU): skip it
+            if at < GUARD_BASE + GUARD_SIZE && at + bytes > GUARD_BASE {
+                at = GUARD_BASE + GUARD_SIZE;
+            }
+            if at + bytes > top {
+                at = bottom;
+            }
+            self.next = at + bytes;
+            let mut block = Region { base: at as *mut u32, words: RUN_WORDS as usize };
+            march::test(&mut block)
+        })
+    }
 }
 
 /// The refusal: the fault line on Serial1 (`firmware::RAM_FAULT_LINE`,
