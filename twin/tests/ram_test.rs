@@ -16,6 +16,7 @@ use std::rc::Rc;
 use common::{lines, run};
 use twin::pit::IRQ_PIT;
 use twin::{boot_twin, Twin};
+use unicorn_engine::RegisterARM;
 
 const RAM_FAULT: &str = "FAULT HARDWARE SELF_TEST code=131";
 
@@ -146,16 +147,29 @@ fn healthy_ram_passes_the_boot_ram_test() {
     );
 }
 
-/// The run-time RAM test (`ram_test::RunTimeTest`): a stack cell that
-/// fails during operation (stuck at 1 from 100 ms after power-on, 4 KiB
+/// The run-time RAM test (`ram_test::RunTimeTest`): first measured on a
+/// healthy run (its passes, the instructions it runs with interrupts masked
+/// and the blocks of one round of the free stack), then a stack cell that
+/// fails during operation (stuck at 1 from 400 ms after power-on, 4 KiB
 /// above the stack's bottom, deeper than the tick and the main loop reach)
-/// is found by the main loop's incremental March C- within one round of the
-/// free stack: the fatal stop (every STEP output low), the watchdog reset,
-/// then the boot RAM test refuses the start.
+/// is found by the main loop's incremental March C- within one round: the
+/// fatal stop (every STEP output low), the watchdog reset, then the boot
+/// RAM test refuses the start.
 #[test]
 fn a_cell_failing_in_operation_fails_the_run_time_ram_test() {
     let mut t = boot_twin().unwrap();
     let stop = t.static_addr("6target10fatal_stop17h").expect("parol6::target::fatal_stop");
+    let step = t.static_addr("11RunTimeTest4step17h").expect("RunTimeTest::step");
+    // the masked span: from `cpsid i` to the `msr primask` that restores it
+    // (read from ITCM once the runtime has copied the code there, before
+    // the main loop first calls `step`)
+    run(&mut t, 1);
+    let mut code = [0u8; 0x100];
+    t.uc.mem_read(u64::from(step), &mut code).unwrap();
+    let hw: Vec<u16> = code.chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+    let cpsid = hw.iter().position(|&h| h == 0xb672).expect("cpsid i in step");
+    let msr =
+        (cpsid..hw.len() - 1).find(|&i| hw[i] & 0xfff0 == 0xf380 && hw[i + 1] == 0x8810).expect("msr primask in step");
     let at = Rc::new(Cell::new(None));
     let seen = at.clone();
     t.uc.add_code_hook(u64::from(stop), u64::from(stop), move |uc, _, _| {
@@ -164,12 +178,39 @@ fn a_cell_failing_in_operation_fails_the_run_time_ram_test() {
         }
     })
     .unwrap();
-    run(&mut t, 100);
+    // (steps, the step count at the last wrap of the cursor, blocks per round, last cursor)
+    let stats = Rc::new(Cell::new((0u64, None::<u64>, 0u64, 0u32)));
+    let (masked_from, masked_max) = (Rc::new(Cell::new(0u64)), Rc::new(Cell::new(0u64)));
+    let (st, mf, mf2, mm) = (stats.clone(), masked_from.clone(), masked_from.clone(), masked_max.clone());
+    let entry = u64::from(step);
+    t.uc.add_code_hook(entry, entry, move |uc, _, _| {
+        // `step(&mut self)`: r0 is the result's slot, r1 `self` (`next` first)
+        let this = uc.reg_read(RegisterARM::R1).unwrap();
+        let mut b = [0u8; 4];
+        uc.mem_read(this, &mut b).unwrap();
+        let next = u32::from_le_bytes(b);
+        let (n, wrap, blocks, last) = st.get();
+        let (wrap, blocks) = if next < last { (Some(n), wrap.map_or(blocks, |w| n - w)) } else { (wrap, blocks) };
+        st.set((n + 1, wrap, blocks, next));
+    })
+    .unwrap();
+    let a = entry + 2 * cpsid as u64;
+    t.uc.add_code_hook(a, a, move |uc, _, _| mf.set(uc.get_data().now)).unwrap();
+    let m = entry + 2 * msr as u64;
+    t.uc.add_code_hook(m, m, move |uc, _, _| mm.set(mm.get().max(uc.get_data().now - mf2.get()))).unwrap();
+    t.uc.ctl_flush_tb().unwrap();
+    run(&mut t, 400);
     assert!(lines(&t).iter().any(|s| s == "READY"), "{:?}", lines(&t));
+    let (steps, _, blocks, _) = stats.get();
+    println!(
+        "run-time RAM test, healthy, first 400 ms: {steps} passes, at most {} instructions with interrupts masked, {blocks} blocks of 32 B per round",
+        masked_max.get()
+    );
+    assert!(blocks > 0, "no complete round of the free stack in 400 ms");
     let injected = t.now();
     let cell = t.linker_symbol("__estack").expect("__estack") + 0x1000;
     t.stuck_bit(cell, 6, true).unwrap();
-    run(&mut t, 1600);
+    run(&mut t, 1900);
     let stopped = at.get().unwrap_or_else(|| panic!("no fatal stop: {:?}", lines(&t)));
     let ms = (stopped - injected) as f64 / twin::MS as f64;
     println!("run-time RAM test: cell {cell:#x} bit 6 stuck at 1 from {injected} cycles: fatal stop {ms:.1} ms later");
