@@ -80,8 +80,11 @@ pub struct Interpolator<S> {
     target: S,
     /// Set-point velocity (rad/s), signed.
     vel: S,
-    /// Cruising speed toward the target (rad/s, >= 0).
-    speed: S,
+    /// The cruising speed's cap toward the target (rad/s): the requested
+    /// speed, at least `dv` (a crawl below it would never arrive) and at
+    /// most the speed limit. A per-target constant: computed once when the
+    /// target is accepted ([`Self::retarget`]), not on every tick.
+    cap: S,
     /// The interval the set-point may occupy until the next target (the
     /// guarantee's fence: `lo <= hi`).
     lo: S,
@@ -90,23 +93,31 @@ pub struct Interpolator<S> {
 
 impl<S: Scalar> Interpolator<S> {
     /// Holds position `p` at rest (re-synchronisation to a measured
-    /// position).
+    /// position). The cap is zero: at rest on its target the set-point
+    /// lands on it every tick, whatever the cap.
     pub fn hold(p: S) -> Self {
-        Interpolator { sp: p, target: p, vel: S::ZERO, speed: S::ZERO, lo: p, hi: p }
+        Interpolator { sp: p, target: p, vel: S::ZERO, cap: S::ZERO, lo: p, hi: p }
     }
 
     /// A generator in any state: set-point `sp`, target, velocity `vel`
-    /// (rad/s) and cruising speed, free to move over the whole plausible
+    /// (rad/s) and cruising speed `speed` (bounded as [`Self::retarget`]
+    /// bounds it, with profile `k`), free to move over the whole plausible
     /// range (`+-POSITION_ABS_MAX`). [`Self::advance`] is total over every
     /// state; this is how the proofs start from a symbolic one.
-    pub fn from_parts(sp: S, target: S, vel: S, speed: S) -> Self {
+    pub fn from_parts(sp: S, target: S, vel: S, speed: S, k: &Profile<S>) -> Self {
         let wide = S::from_f32(crate::config::POSITION_ABS_MAX);
-        Self::from_parts_within(sp, target, vel, speed, wide.neg(), wide)
+        Self::from_parts_within(sp, target, vel, speed, wide.neg(), wide, k)
     }
 
     /// [`Self::from_parts`] with the guarantee's interval `[lo, hi]`.
-    pub fn from_parts_within(sp: S, target: S, vel: S, speed: S, lo: S, hi: S) -> Self {
-        Interpolator { sp, target, vel, speed: speed.abs(), lo, hi }
+    pub fn from_parts_within(sp: S, target: S, vel: S, speed: S, lo: S, hi: S, k: &Profile<S>) -> Self {
+        Interpolator { sp, target, vel, cap: Self::cap_of(speed, k), lo, hi }
+    }
+
+    /// The cap of cruising speed `speed` (see the field `cap`).
+    #[inline(always)]
+    fn cap_of(speed: S, k: &Profile<S>) -> S {
+        speed.abs().max(k.dv).min(k.vmax)
     }
 
     /// Moves toward `target` at a cruising speed of at most `speed` (rad/s,
@@ -120,7 +131,7 @@ impl<S: Scalar> Interpolator<S> {
         self.lo = sp.min(stop).min(target);
         self.hi = sp.max(stop).max(target);
         self.target = target;
-        self.speed = speed.abs();
+        self.cap = Self::cap_of(speed, k);
     }
 
     /// An upper bound of where the set-point comes to rest if it brakes
@@ -157,7 +168,7 @@ impl<S: Scalar> Interpolator<S> {
 
         // Otherwise: the fastest of accelerate, cruise, decelerate that can
         // still stop at the target.
-        let cap = self.speed.max(dv).min(k.vmax);
+        let cap = self.cap;
         let lo = v.minus(dv).max(S::ZERO).min(v.plus(dv));
         let c1 = v.plus(dv).min(cap).max(lo);
         // Cruise, or at least `dv` from near rest (a crawl far below `dv`

@@ -197,6 +197,7 @@ fn a_set_point_a_rounding_short_of_its_target_lands_on_it_not_past<S: Scalar>() 
                         S::from_f32(target),
                         S::from_f32(sign * v),
                         S::from_f32(jc.max_velocity),
+                        &k,
                     );
                     let t = it.target();
                     let (sp, vel) = it.advance(&k);

@@ -215,7 +215,7 @@ fn interpolator<S: Sym>() {
     kani::cover!(sp != to && vel == S::ZERO, "a move from rest");
     kani::cover!(vel.abs() == k.vmax, "at full speed");
     kani::cover!((to > sp && vel < S::ZERO) || (to < sp && vel > S::ZERO), "moving away from the target");
-    let mut it = Interpolator::from_parts(sp, to, vel, speed);
+    let mut it = Interpolator::from_parts(sp, to, vel, speed, &k);
     let (sp2, vel2) = it.advance(&k);
     // The landing may change the velocity by dv plus 2 eps per tick.
     let slack = k.eps.times_int(k.tick_hz).times_int(2).plus(S::from_f32(1e-5));
@@ -255,7 +255,7 @@ fn setpoint_guarantee<S: Sym>() {
     let vel = any_in(k.vmax.neg(), k.vmax);
     let speed = any_in(S::ZERO, k.vmax);
     kani::cover!(lo == hi, "at rest on its interval");
-    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi);
+    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi, &k);
     let mut moved = it;
     let (sp2, _) = moved.advance(&k);
     assert!(sp2 >= lo && sp2 <= hi, "the set-point left its interval");

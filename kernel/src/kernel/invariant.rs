@@ -195,13 +195,14 @@ mod spec {
             }
             k.homed = spec.homed & super::ALL;
             k.homing_status = if k.homed == super::ALL { HomingStatus::Complete } else { HomingStatus::NotRequested };
-            for ((ax, s), out) in k.axes.iter_mut().zip(spec.axes.iter()).zip(k.last_out.iter_mut()) {
+            let axes = k.axes.iter_mut().zip(spec.axes.iter()).zip(k.last_out.iter_mut()).zip(k.p.axes.iter());
+            for (((ax, s), out), p) in axes {
                 let mut a = Axis::new();
                 a.ready = true;
                 a.unwrap = Unwrapper::new(s.count);
                 a.zero = s.zero;
                 a.obs = AlphaBeta { x: s.x, v: s.v };
-                a.interp = Interpolator::from_parts(s.setpoint, s.target, s.sp_velocity, s.speed);
+                a.interp = Interpolator::from_parts(s.setpoint, s.target, s.sp_velocity, s.speed, &p.profile);
                 a.path = s.path;
                 a.fe_count = s.fe_count;
                 a.invalid = s.invalid;
@@ -366,15 +367,18 @@ mod tests {
         // 6. set-points: velocity within vmax.
         case(booted::<S>, true, "set-point velocity exactly vmax", |k| {
             let v = vmax(k, 2);
-            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+            k.axes[2].interp =
+                crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO, &k.p.axes[2].profile);
         });
         case(booted::<S>, false, "set-point velocity above vmax", |k| {
             let v = vmax(k, 2).plus(half);
-            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+            k.axes[2].interp =
+                crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO, &k.p.axes[2].profile);
         });
         case(booted::<S>, false, "set-point velocity below -vmax", |k| {
             let v = vmax(k, 2).plus(half).neg();
-            k.axes[2].interp = crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO);
+            k.axes[2].interp =
+                crate::interp::Interpolator::from_parts(S::ZERO, S::ONE, v, S::ZERO, &k.p.axes[2].profile);
         });
         // 7. stream timing.
         let (lo, hi) = (booted::<S>().p.seg_min, booted::<S>().p.seg_max);
@@ -398,11 +402,12 @@ mod tests {
         case(booted::<f32>, false, "NaN estimated speed", |k| k.axes[1].obs.v = nan);
         for (sp, t, v) in [(nan, 0.0, 0.0), (0.0, nan, 0.0), (0.0, 0.0, nan), (f32::INFINITY, 0.0, 0.0)] {
             case(booted::<f32>, false, "non-finite set-point", |k| {
-                k.axes[1].interp = crate::interp::Interpolator::from_parts(sp, t, v, 0.0)
+                k.axes[1].interp = crate::interp::Interpolator::from_parts(sp, t, v, 0.0, &k.p.axes[1].profile)
             });
         }
         case(booted::<f32>, false, "infinite target", |k| {
-            k.axes[1].interp = crate::interp::Interpolator::from_parts(0.0, f32::NEG_INFINITY, 0.0, 0.0)
+            k.axes[1].interp =
+                crate::interp::Interpolator::from_parts(0.0, f32::NEG_INFINITY, 0.0, 0.0, &k.p.axes[1].profile)
         });
     }
 

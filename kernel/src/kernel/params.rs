@@ -218,7 +218,7 @@ mod figures {
     /// stepped).
     fn braking_ticks<S: Scalar>(p: &super::AxisParams<S>) -> u32 {
         let stop_at = p.vmax.times(p.vmax).times(p.profile.inv_2a);
-        let mut i = Interpolator::from_parts(S::ZERO, stop_at, p.vmax, p.vmax);
+        let mut i = Interpolator::from_parts(S::ZERO, stop_at, p.vmax, p.vmax, &p.profile);
         let mut n = 0;
         while !i.at_rest() && n < 10_000 {
             i.advance(&p.profile);

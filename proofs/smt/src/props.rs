@@ -150,7 +150,7 @@ pub type Step<S> = fn(S, S, S, S, &Profile<S>) -> (S, S);
 
 /// The kernel's step: `Interpolator::advance` from that state.
 pub fn advance<S: Scalar>(sp: S, to: S, vel: S, speed: S, k: &Profile<S>) -> (S, S) {
-    Interpolator::from_parts(sp, to, vel, speed).advance(k)
+    Interpolator::from_parts(sp, to, vel, speed, k).advance(k)
 }
 
 /// The slack of the interpolator's bounds: the Kani harness's
@@ -252,7 +252,7 @@ pub fn setpoint_guarantee<S: Sym>(which: Guarantee) -> Vec<B> {
         within(speed, S::ZERO, k.vmax),
     ])
     .assume();
-    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi);
+    let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi, &k);
     match which {
         Guarantee::Advance => {
             let (sp2, _) = it.advance(&k);
