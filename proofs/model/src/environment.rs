@@ -7,7 +7,7 @@ use crate::model::Supervisor;
 use crate::state::St;
 use kernel::config::AXES;
 use kernel::homing::Phase;
-use kernel::{EncoderSample, HardwareFault, MotionTarget, Request, Sense, State};
+use kernel::{DriverCause, EncoderSample, HardwareFault, MotionTarget, Request, Sense, State};
 use proofs::setup::COUNTS;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -34,18 +34,24 @@ pub(crate) enum Perturb {
 pub(crate) const HW_OVERRUN: Perturb = Perturb::Hardware(HardwareFault::TickOverrun);
 pub(crate) const HW_DRIVER: Perturb = Perturb::Hardware(HardwareFault::Driver { axis: 2 });
 pub(crate) const HW_SELFTEST: Perturb = Perturb::Hardware(HardwareFault::SelfTest(7));
+/// A driver's own diagnostics over its SPI link. One cause stands for all:
+/// the kernel stores the reported fault and never branches on the cause
+/// (`the_kernel_never_reads_a_driver_cause` checks its source).
+pub(crate) const HW_DRIVER_DIAG: Perturb =
+    Perturb::Hardware(HardwareFault::DriverDiagnostic { axis: 3, cause: DriverCause::Overtemperature });
 
 pub(crate) const PERTURBATIONS: [Perturb; 6] =
     [Perturb::None, Perturb::LostJ1, Perturb::GlitchJ1, HW_OVERRUN, Perturb::StraySwitch(0), Perturb::StraySwitch(5)];
 /// The full configuration's perturbations outside homing: every one, with
 /// every kind of hardware fault.
-pub(crate) const PERTURBATIONS_FULL: [Perturb; 8] = [
+pub(crate) const PERTURBATIONS_FULL: [Perturb; 9] = [
     Perturb::None,
     Perturb::LostJ1,
     Perturb::GlitchJ1,
     HW_OVERRUN,
     HW_DRIVER,
     HW_SELFTEST,
+    HW_DRIVER_DIAG,
     Perturb::StraySwitch(0),
     Perturb::StraySwitch(5),
 ];
@@ -85,8 +91,8 @@ pub(crate) const PERTURBATIONS_HOMING: [Perturb; 4] =
     [Perturb::None, Perturb::LostJ1, HW_OVERRUN, Perturb::StraySwitch(5)];
 /// The tiny configuration's perturbations: those of the full one during
 /// homing, with every kind of hardware fault.
-pub(crate) const PERTURBATIONS_TINY: [Perturb; 6] =
-    [Perturb::None, Perturb::LostJ1, HW_OVERRUN, HW_DRIVER, HW_SELFTEST, Perturb::StraySwitch(5)];
+pub(crate) const PERTURBATIONS_TINY: [Perturb; 7] =
+    [Perturb::None, Perturb::LostJ1, HW_OVERRUN, HW_DRIVER, HW_SELFTEST, HW_DRIVER_DIAG, Perturb::StraySwitch(5)];
 
 /// One tick: a request, a sensor perturbation, and which switches of the
 /// moving homing axes are pressed.

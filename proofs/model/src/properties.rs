@@ -93,6 +93,12 @@ impl<S: ModelScalar> Supervisor<S> {
                 Property::<Self>::sometimes("hardware fault: self-test", |_, s| {
                     matches!(s.k.fault().map(|f| f.reason), Some(FaultReason::Hardware(HardwareFault::SelfTest(_))))
                 }),
+                Property::<Self>::sometimes("hardware fault: driver diagnostic", |_, s| {
+                    matches!(
+                        s.k.fault().map(|f| f.reason),
+                        Some(FaultReason::Hardware(HardwareFault::DriverDiagnostic { .. }))
+                    )
+                }),
             ]);
         }
         p
