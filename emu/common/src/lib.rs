@@ -23,7 +23,7 @@
 use core::fmt::{self, Write};
 
 use kernel::config::{Validated, AXES};
-use kernel::{Actuation, EncoderSample, Events, Fx, HardwareFault, Kernel, Scalar, Sense, TickOutput};
+use kernel::{Actuation, DriverCause, EncoderSample, Events, Fx, HardwareFault, Kernel, Scalar, Sense, TickOutput};
 use protocol::{Command, DialectLock, ParseError, Parser};
 
 /// Magic bytes at the start of a scenario.
@@ -120,11 +120,30 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// The driver diagnostics' causes in their scenario encoding's order
+/// (`0x20 + 10 axis + index`).
+const DRIVER_CAUSES: [DriverCause; 9] = [
+    DriverCause::Missing,
+    DriverCause::WrongVersion,
+    DriverCause::Reset,
+    DriverCause::DriverError,
+    DriverCause::ChargePump,
+    DriverCause::Overtemperature,
+    DriverCause::ShortToGround,
+    DriverCause::ShortToSupply,
+    DriverCause::OpenLoad,
+];
+
 fn decode_hw(b: u8) -> Option<HardwareFault> {
+    let diagnostic = b.checked_sub(0x20).and_then(|v| {
+        let cause = *DRIVER_CAUSES.get(usize::from(v % 10))?;
+        Some(HardwareFault::DriverDiagnostic { axis: v / 10, cause })
+    });
     match b {
         0 => None,
         1 => Some(HardwareFault::TickOverrun),
         0x10..=0x1F => Some(HardwareFault::Driver { axis: b - 0x10 }),
+        0x20..=0x6F if diagnostic.is_some() => diagnostic,
         0x80..=0xFF => Some(HardwareFault::SelfTest(b - 0x80)),
         _ => Some(HardwareFault::SelfTest(0x7F)),
     }
@@ -137,6 +156,10 @@ pub fn encode_hw(f: Option<HardwareFault>) -> u8 {
         Some(HardwareFault::TickOverrun) => 1,
         Some(HardwareFault::Driver { axis }) => 0x10 | (axis & 0x0F),
         Some(HardwareFault::SelfTest(c)) => 0x80 | (c & 0x7F),
+        Some(HardwareFault::DriverDiagnostic { axis, cause }) => {
+            let i = DRIVER_CAUSES.iter().position(|c| *c == cause).unwrap_or(0) as u8;
+            0x20 + (axis % 8) * 10 + i
+        }
     }
 }
 
@@ -339,4 +362,24 @@ pub fn replay<S: Bits, H: Hooks>(config: &Validated, scenario: &[u8], hooks: &mu
     let _ = write!(w, "== {} end ticks={n} fnv1a={fnv:08x}", S::NAME);
     hooks.line(w.as_str());
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every hardware fault a scenario can carry decodes to itself.
+    #[test]
+    fn hardware_faults_round_trip() {
+        let check = |f: Option<HardwareFault>| assert_eq!(decode_hw(encode_hw(f)), f, "{f:?}");
+        check(None);
+        check(Some(HardwareFault::TickOverrun));
+        check(Some(HardwareFault::SelfTest(5)));
+        for axis in 0..AXES as u8 {
+            check(Some(HardwareFault::Driver { axis }));
+            for cause in DRIVER_CAUSES {
+                check(Some(HardwareFault::DriverDiagnostic { axis, cause }));
+            }
+        }
+    }
 }
