@@ -426,6 +426,34 @@ mod tests {
         }
     }
 
+    /// G1 at rest: a set-point that has arrived (at rest on its target)
+    /// and accepts a new target gets exactly the interval between where it
+    /// rests and the new target, whichever side it came from (at rest its
+    /// stopping point is the set-point itself, not one braking allowance
+    /// beyond it).
+    #[test]
+    fn a_target_accepted_at_rest_spans_exactly_the_rest_position_and_the_target() {
+        for dir in [1.0f32, -1.0] {
+            let k = profile::<f32>(6.0, 60.0, 1000);
+            let kx = profile::<Fx>(6.0, 60.0, 1000);
+            let mut it = Interpolator::hold(0.0f32);
+            let mut ix = Interpolator::hold(Fx::ZERO);
+            it.retarget(0.5 * dir, 6.0, &k);
+            ix.retarget(Fx::from_f32(0.5 * dir), Fx::from_num(6), &kx);
+            for _ in 0..2000 {
+                it.advance(&k);
+                ix.advance(&kx);
+            }
+            assert!(it.at_rest() && ix.at_rest());
+            it.retarget(dir, 6.0, &k);
+            ix.retarget(Fx::from_f32(dir), Fx::from_num(6), &kx);
+            let want = ((0.5 * dir).min(dir), (0.5 * dir).max(dir));
+            assert_eq!(it.bounds(), want, "f32, direction {dir}");
+            let (lo, hi) = ix.bounds();
+            assert_eq!((lo.to_f32(), hi.to_f32()), want, "I8F24, direction {dir}");
+        }
+    }
+
     #[test]
     fn a_reversal_decelerates_through_zero() {
         let k = profile::<f32>(6.0, 60.0, 1000);
