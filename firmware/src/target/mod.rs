@@ -644,28 +644,47 @@ fn fatal_stop() -> ! {
     // handler cannot preempt a HardFault, nor run with PRIMASK set); the
     // aliases are used for the STEP shutdown, the marker and the LED only.
     unsafe {
-        let pwm1 = ral::pwm::PWM1::instance();
-        let pwm2 = ral::pwm::PWM2::instance();
-        let pwm3 = ral::pwm::PWM3::instance();
-        let pwm4 = ral::pwm::PWM4::instance();
-        let gpio1 = ral::gpio::GPIO1::instance();
-        let gpio2 = ral::gpio::GPIO2::instance();
-        let gpio3 = ral::gpio::GPIO3::instance();
-        let gpio4 = ral::gpio::GPIO4::instance();
-        let io = ral::iomuxc::IOMUXC::instance();
-        // 1. every STEP output low, stepping stopped
-        panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
-        // 1b. the drivers' enable output inactive: torque off
-        #[cfg(feature = "driver-enable")]
-        panic_stop::force_enable_inactive([&gpio1, &gpio2, &gpio3, &gpio4], &io, DRIVER_ENABLE);
+        // 1. every STEP output low, stepping stopped; the drivers' enable
+        // output inactive: torque off
+        stop_outputs();
         // 2. remember it across the watchdog reset
         core::ptr::write_volatile(addr_of_mut!(PANIC_MARK).cast::<u32>(), firmware::PANIC_MARKER);
         // 3. signal
+        let io = ral::iomuxc::IOMUXC::instance();
+        let gpio2 = ral::gpio::GPIO2::instance();
         led_on(&io, &gpio2);
     }
     loop {
         cortex_m::asm::nop();
     }
+}
+
+/// Every STEP output low and stepping stopped, and (with the
+/// `driver-enable` feature) the drivers' enable output inactive: the part
+/// of the fatal stop and the bootloader hand-over that removes motion.
+///
+/// # Safety
+/// Interrupts must be disabled and the caller must never return to the
+/// drivers that own these peripherals (it aliases them).
+unsafe fn stop_outputs() {
+    // SAFETY: the caller's contract: no owner of these peripherals runs
+    // again, so the aliases cannot race with it.
+    let (pwm1, pwm2, pwm3, pwm4) = unsafe {
+        (ral::pwm::PWM1::instance(), ral::pwm::PWM2::instance(), ral::pwm::PWM3::instance(), ral::pwm::PWM4::instance())
+    };
+    // SAFETY: as above.
+    let (gpio1, gpio2, gpio3, gpio4, io) = unsafe {
+        (
+            ral::gpio::GPIO1::instance(),
+            ral::gpio::GPIO2::instance(),
+            ral::gpio::GPIO3::instance(),
+            ral::gpio::GPIO4::instance(),
+            ral::iomuxc::IOMUXC::instance(),
+        )
+    };
+    panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
+    #[cfg(feature = "driver-enable")]
+    panic_stop::force_enable_inactive([&gpio1, &gpio2, &gpio3, &gpio4], &io, DRIVER_ENABLE);
 }
 
 /// Hands the chip to the Teensy's bootloader (asked over USB, the arm at
@@ -682,18 +701,7 @@ fn enter_bootloader() -> ! {
     // the drivers that own these peripherals never run again; the aliases
     // are used for the STEP shutdown only (as in `fatal_stop`).
     unsafe {
-        let pwm1 = ral::pwm::PWM1::instance();
-        let pwm2 = ral::pwm::PWM2::instance();
-        let pwm3 = ral::pwm::PWM3::instance();
-        let pwm4 = ral::pwm::PWM4::instance();
-        let gpio1 = ral::gpio::GPIO1::instance();
-        let gpio2 = ral::gpio::GPIO2::instance();
-        let gpio3 = ral::gpio::GPIO3::instance();
-        let gpio4 = ral::gpio::GPIO4::instance();
-        let io = ral::iomuxc::IOMUXC::instance();
-        panic_stop::force_steps_low([&pwm1, &pwm2, &pwm3, &pwm4], [&gpio1, &gpio2, &gpio3, &gpio4], &io, &MAP);
-        #[cfg(feature = "driver-enable")]
-        panic_stop::force_enable_inactive([&gpio1, &gpio2, &gpio3, &gpio4], &io, DRIVER_ENABLE);
+        stop_outputs();
     }
     loop {
         // SAFETY: a breakpoint instruction; it touches no memory or
