@@ -233,6 +233,23 @@ fn the_shipped_configuration_passes() {
     assert!(Validated::new(PAROL6).is_ok());
 }
 
+/// `assert_valid` (what a firmware's configuration constant calls, so an
+/// inconsistent one fails the build) accepts the shipped configuration at
+/// run time too.
+#[test]
+fn assert_valid_accepts_the_shipped_configuration() {
+    kernel::config::assert_valid(&PAROL6);
+}
+
+/// `assert_valid` stops with the first broken rule's message: a tick rate
+/// out of range, evaluated at run time. Catches: an `assert_valid` that
+/// does not act on `check`'s verdict.
+#[test]
+#[should_panic(expected = "tick_hz must be within 100..=10000")]
+fn assert_valid_stops_on_an_inconsistent_configuration() {
+    kernel::config::assert_valid(&ArmConfig { tick_hz: 50, ..PAROL6 });
+}
+
 #[test]
 fn every_clause_rejects_a_configuration_that_breaks_it() {
     let mut wrong = Vec::new();

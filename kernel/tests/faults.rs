@@ -25,8 +25,10 @@ both!(
     encoder_loss_and_jump_fault_and_require_rehoming,
     counts_out_of_range_are_lost_samples,
     boot_timeout_names_the_unready_encoder_on_time,
+    after_a_boot_timeout_enable_waits_for_the_missing_encoder,
     an_estimate_beyond_the_absolute_bound_is_a_numeric_fault,
     hardware_overrun_faults,
+    enable_is_refused_while_a_hardware_fault_persists,
     fault_keeps_its_first_reason,
 );
 
@@ -418,6 +420,44 @@ fn boot_timeout_names_the_unready_encoder_on_time<S: Scalar>() {
     assert_eq!(r.k.fault().map(|f| f.reason), Some(want));
 }
 
+/// An arm that faulted in Boot with an encoder never read leaves Fault only
+/// with every encoder reading: `<ENABLE>` while J5 is still missing is
+/// refused with it as the cause present (`EncoderLost`); once it reads, the
+/// enable is accepted (Unhomed), J5's estimate starts at rest at its
+/// reading, and a full homing run completes (every axis followed). This is
+/// the one way into a moving mode other than `Ready` (which needs every
+/// encoder read): every axis that runs the following-error check has been
+/// read. Catches: `present_cause` without its encoder check (the enable is
+/// accepted with J5 never read).
+fn after_a_boot_timeout_enable_waits_for_the_missing_encoder<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.plant.encoder[4] = EncoderFault::Lost;
+    let out = r.run_until(1_000, |o| o.status.state != State::Boot).expect("boot times out");
+    assert_eq!(r.k.fault().map(|f| f.reason), Some(FaultReason::EncoderNotReady { axis: 4 }), "after {out} ticks");
+    for _ in 0..3 {
+        r.run(10);
+        let out = r.enable();
+        let reason = Reject::CauseActive(FaultReason::EncoderLost { axis: 4 });
+        assert!(
+            out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Enable, reason }),
+            "{:?}",
+            out.events
+        );
+        assert_eq!(out.status.state, State::Fault);
+    }
+    r.plant.encoder[4] = EncoderFault::None;
+    let out = r.enable();
+    assert_eq!(out.status.state, State::Unhomed, "{:?}", out.events);
+    assert_eq!(out.status.velocity[4], S::ZERO);
+    let c = f64::from(r.plant.counts(4));
+    let want = c * PAROL6.joints[4].rad_per_count();
+    let got = f64::from(out.status.position[4].to_f32());
+    assert!((got - want).abs() <= 2.0 * PAROL6.joints[4].rad_per_count() + 1e-5, "J5 at {got}, reading {want}");
+    r.tick(Some(kernel::Request::Home));
+    r.run_until(60_000, |o| o.status.state != State::Homing).expect("homing finishes");
+    assert_eq!(r.k.state(), State::Operational, "{:?}", r.events);
+}
+
 /// The estimate's plausibility bounds (`POSITION_ABS_MAX`, 32 rad): an
 /// unhomed J6 turned by an outside force (below its runaway speed) for
 /// turn after turn has an estimate that eventually leaves them; that is a
@@ -445,6 +485,47 @@ fn hardware_overrun_faults<S: Scalar>() {
     let out = r.tick_with(sense, None);
     assert_eq!(out.status.fault.unwrap().reason, FaultReason::Hardware(kernel::HardwareFault::TickOverrun));
     assert!(out.act.velocity.iter().all(|v| *v == S::ZERO));
+}
+
+/// A hardware fault faults at once and, while the sensors still report it,
+/// `<ENABLE>` is refused with it as the cause present (PROTOCOL.md 6.5,
+/// CAUSE_ACTIVE; SR-5, SR-21): the fault stays latched with its first
+/// reason and the outputs at zero; once it is gone, the enable is accepted.
+/// Every hardware fault kind. The tick starts from the sensed hardware fault
+/// (`Kernel::tick_into`), so the enable sees it as a cause detected in its
+/// own tick; `present_cause` checks the sensors again. Catches: an enable
+/// that checks neither (each one alone is enough to refuse it).
+fn enable_is_refused_while_a_hardware_fault_persists<S: Scalar>() {
+    use kernel::{DriverCause, HardwareFault};
+    let kinds = [
+        HardwareFault::TickOverrun,
+        HardwareFault::Driver { axis: 2 },
+        HardwareFault::SelfTest(7),
+        HardwareFault::DriverDiagnostic { axis: 4, cause: DriverCause::Overtemperature },
+    ];
+    for h in kinds {
+        let mut r = homed::<S>();
+        r.plant.hardware_fault = Some(h);
+        let out = r.tick(None);
+        assert_eq!(out.status.fault.map(|f| f.reason), Some(FaultReason::Hardware(h)));
+        for _ in 0..3 {
+            r.run(10);
+            let out = r.enable();
+            let reason = Reject::CauseActive(FaultReason::Hardware(h));
+            assert!(
+                out.events.iter().any(|e| *e == Event::Rejected { request: RequestKind::Enable, reason }),
+                "{h:?}: {:?}",
+                out.events
+            );
+            assert_eq!(out.status.state, State::Fault, "{h:?}");
+            assert_eq!(out.status.fault.map(|f| f.reason), Some(FaultReason::Hardware(h)), "{h:?}");
+            assert!(out.act.velocity.iter().all(|v| *v == S::ZERO), "{h:?}");
+        }
+        r.plant.hardware_fault = None;
+        r.run(10);
+        let out = r.enable();
+        assert_eq!(out.status.state, State::Operational, "{h:?}: {:?}", out.events);
+    }
 }
 
 fn fault_keeps_its_first_reason<S: Scalar>() {

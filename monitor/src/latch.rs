@@ -38,7 +38,8 @@ impl<S: Scalar> Monitor<S> {
                     let EncoderSample::Count(c) = *e else {
                         return Err(t.fail(Sr::Sr1, "Ready with an encoder lost").on(i));
                     };
-                    let want = f64::from(c) * j.rad_per_count();
+                    let sign = if j.encoder_reversed { -1.0 } else { 1.0 };
+                    let want = sign * f64::from(c) * j.rad_per_count();
                     let got = f(*x);
                     let tol = 2.0 * j.rad_per_count() + 1e-5;
                     ensure!(

@@ -29,7 +29,7 @@
 //! | SR | check |
 //! |---|---|
 //! | SR-1 | zero output in Boot and Unhomed; `Ready` only from Boot; with [`PlantFacts::clean_since_start`], each estimate starts at rest at the encoder's reading |
-//! | SR-2 | every output finite and within the joint's max velocity; step rate within the step generator's limit and the joint's speed, with the velocity's sign |
+//! | SR-2 | every output finite and within the joint's max velocity; step rate within the step generator's limit and the joint's speed, with the velocity's sign (the opposite one for a motor wired reversed, `motor_reversed`) |
 //! | SR-4 | zero output on every axis in the tick a fault is raised |
 //! | SR-5 | Fault state iff a fault is latched; at most one fault event per tick; the first reason kept; Fault and SoftEstop left only by an accepted enable; `<HOME>` in SoftEstop or Fault refused (`Reject::Latched` for `<HOME>`) |
 //! | SR-6 | [`interactions`]: after the arm has rested, an enable in a latched state with no physical cause is accepted (no lock-up); enable refused while a cause is in the sensors (a homed joint's switch) or outside Fault/SoftEstop; after enable set-points equal positions, timeout disarmed, no speed above vmax, no fault in the same tick; with [`PlantFacts::quiet_ticks`], a refusal's cause is real |

@@ -35,7 +35,9 @@ impl<S: Scalar> Monitor<S> {
                 return Err(t.fail(Sr::Sr2, "step rate above the joint's max velocity").on(i).got(rate).bound(rmax));
             }
             let vf = v.to_f32();
-            let signed_ok = if vf == 0.0 { r == 0 } else { r == 0 || (vf > 0.0) == (r > 0) };
+            // A motor wired reversed (`motor_reversed`) steps against the
+            // joint's velocity.
+            let signed_ok = if vf == 0.0 { r == 0 } else { r == 0 || ((vf > 0.0) == (r > 0)) != j.motor_reversed };
             if !signed_ok {
                 return Err(t.fail(Sr::Sr2, "step rate against the velocity's sign").on(i).got(f64::from(r)));
             }

@@ -1,6 +1,7 @@
 //! The one test plant (feature `plant`, needs std for `f64::floor`): six
 //! steppers that follow their step rate exactly, MT6816 encoders on the
-//! motor shafts, limit switches at the configured switch positions, and the
+//! motor shafts (motor and encoder directions as the configuration's
+//! `motor_reversed` and `encoder_reversed` say), limit switches at the configured switch positions, and the
 //! faults tests inject (encoder loss, out-of-range counts, count glitches,
 //! stuck switches, hardware faults, outside forces, encoder slips).
 //!
@@ -96,7 +97,10 @@ impl Plant {
         else {
             return 0;
         };
-        let motor = q * f64::from(j.gear_ratio) + off;
+        // An encoder mounted reversed (`encoder_reversed`) counts down as
+        // the joint turns positive.
+        let sign = if j.encoder_reversed { -1.0 } else { 1.0 };
+        let motor = sign * (q * f64::from(j.gear_ratio) + off);
         let c = ((motor / core::f64::consts::TAU * 4096.0).floor() as i64).saturating_add(i64::from(*g));
         c.rem_euclid(4096) as u16
     }
@@ -137,7 +141,10 @@ impl Plant {
             self.q.iter_mut().zip(step_rate.iter()).zip(self.cfg.joints.iter()).zip(self.disturbance.iter()).enumerate()
         {
             let m = crate::bit(i);
-            let dir = if self.reversed & m != 0 { -1.0 } else { 1.0 };
+            // A motor wired reversed as the configuration says
+            // (`motor_reversed`) turns the joint negative on positive steps;
+            // `reversed` is a wiring the configuration does not know.
+            let dir = if (self.reversed & m != 0) != j.motor_reversed { -1.0 } else { 1.0 };
             let turns = if self.stalled & m != 0 { 0.0 } else { 1.0 };
             *q += (dir * turns * f64::from(*r) / j.steps_per_rad() + d) * dt;
         }
