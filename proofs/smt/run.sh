@@ -27,7 +27,7 @@ if [ "$status" != 0 ]; then
     cat "$log"
     exit "$status"
 fi
-grep -E '^(test |test result|f32:|I8F24:|trait comparisons|product lemmas)|square lemmas|[0-9]+ paths, ' "$log"
+grep -E '^(test |test result|f32:|I8F24:|trait comparisons|product lemmas)|square lemmas|factor lemma|integer product|[0-9]+ paths, ' "$log"
 rm -f "$log"
 echo "    ($(( $(date +%s) - T0 )) s)"
 

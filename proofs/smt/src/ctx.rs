@@ -413,8 +413,9 @@ impl Ctx {
 ///   rounded toward it, as `x` is an integer of LSBs; `MIN * -1`
 ///   saturates to MAX = `|MIN|` saturated).
 ///
-/// How each kind is established (z3 on the real product, every input
-/// enumerated, or sampled): `tests/lemmas.rs` and the README.
+/// How each kind is established (z3 on the real product, z3 on its
+/// integer transcription, or every input enumerated): `tests/lemmas.rs`
+/// and the README.
 pub fn product_lemmas(products: &[(u32, u32, u32, Sort)]) -> Vec<Lemma> {
     use LemmaKind::*;
     let squares: Vec<(String, String, Sort)> =

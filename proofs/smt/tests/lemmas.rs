@@ -19,10 +19,18 @@
 //!   `f32` multiplication and the `fixed` crate's `saturating_mul`; that
 //!   the symbolic terms compute the same is the semantics check
 //!   (`tests/semantics.rs`, sampled);
-//! - **sampled** (`I8F24`, a factor in `[-1, 1]`: two 32-bit inputs, a
-//!   64-bit multiplier z3 does not decide within minutes): boundary values,
-//!   every pair of them, and 400,000 random pairs, with the argument in
-//!   `ctx::product_lemmas`' comment.
+//! - **proved by z3 over the integers** (`I8F24`, a factor in `[-1, 1]`,
+//!   where the bit-vector form, a 64-bit multiplier of two unknowns, is not
+//!   decided within minutes): the product term `SymFx::times` builds,
+//!   written over the integers operator for operator ([`INT_PRODUCT`]),
+//!   and the fact as `ctx::product_lemmas` writes it, likewise; z3 proves
+//!   the fact for every pair of 32-bit words, and that the transcription
+//!   is exact (the 64-bit product of two words never wraps). The
+//!   transcription is checked against the kernel's multiply on
+//!   enumerated slices (every word times +-1.0 and +-(1.0 - 1 LSB), every
+//!   factor in `[-1, 1]` times 48 boundary words) and on random pairs, and
+//!   z3's own evaluation of it against its Rust mirror on samples; boundary
+//!   values and random pairs also check the fact on the concrete type.
 //!
 //! `every_lemma_kind_is_established` fails if `ctx::product_lemmas` asserts
 //! a kind of fact none of these establishes.
@@ -107,7 +115,8 @@ fn f32_product_facts_hold_on_samples() {
     }
 }
 
-/// The one sampled lemma (`I8F24`, a factor in `[-1, 1]`), and the
+/// The `I8F24` facts on the concrete type, on samples (cheap, no z3): a
+/// factor in `[-1, 1]` (proved over the integers below) and the
 /// exhaustively checked square facts again on pairs.
 #[test]
 fn i8f24_product_facts_hold_on_samples() {
@@ -144,8 +153,9 @@ fn i8f24_product_facts_hold_on_samples() {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum How {
     Z3,
+    /// z3 on the integer transcription of the bit-vector terms.
+    Z3Integers,
     Exhaustive,
-    Sampled,
 }
 
 fn how(sort: Sort, kind: LemmaKind) -> How {
@@ -153,7 +163,7 @@ fn how(sort: Sort, kind: LemmaKind) -> How {
         (_, LemmaKind::SquareMonotone) | (Sort::Bv32, LemmaKind::SquareSign) => How::Exhaustive,
         (Sort::F32, LemmaKind::SquareSign | LemmaKind::SquareInfinite | LemmaKind::SquareZero) => How::Z3,
         (Sort::F32, _) => How::Z3,
-        (Sort::Bv32, LemmaKind::FactorAtMostOne) => How::Sampled,
+        (Sort::Bv32, LemmaKind::FactorAtMostOne) => How::Z3Integers,
         _ => panic!("{sort:?} {kind:?}: no way to establish it"),
     }
 }
@@ -292,6 +302,186 @@ fn i8f24_square_lemmas_hold_on_every_input() {
     println!(
         "I8F24 square lemmas: every one of 2^32 inputs, {} monotone steps, exhaustive in {:.1} s",
         i32::MAX,
+        t0.elapsed().as_secs_f64()
+    );
+}
+
+/// The `I8F24` product as `SymFx::times` builds it, over the integers.
+/// The bit-vector term is `(let ((q (bvashr (bvmul (sign_extend a)
+/// (sign_extend b)) 24))) (ite (and (bvsle q MAX) (bvsge q MIN)) (extract
+/// q) (ite (xor (bvslt a 0) (bvslt b 0)) MIN MAX)))` on 32-bit words; each
+/// word is an integer in `[MIN, MAX]` (its signed value), and operator for
+/// operator: `sign_extend` keeps the signed value; `bvmul` of two 64-bit
+/// words is their product modulo 2^64, which is the integer product when
+/// that lies in the signed 64-bit range (`nowrap`, proved below for every
+/// pair of words); `bvashr` by 24 is the floor of the quotient by 2^24
+/// (SMT-LIB `div` by a positive divisor is the floor); the range test and
+/// the saturation are the same comparisons; `extract` of a value in the
+/// 32-bit range is that value. `sabs` is `ctx::product_lemmas`' `abs`
+/// (`saturating_abs`) likewise.
+const INT_PRODUCT: &str = "\
+(define-fun MIN () Int (- 2147483648)) \
+(define-fun MAX () Int 2147483647) \
+(define-fun word ((v Int)) Bool (and (<= MIN v) (<= v MAX))) \
+(define-fun nowrap ((a Int) (b Int)) Bool \
+  (and (<= (- 9223372036854775808) (* a b)) (<= (* a b) 9223372036854775807))) \
+(define-fun mul ((a Int) (b Int)) Int \
+  (let ((q (div (* a b) 16777216))) \
+    (ite (and (<= q MAX) (>= q MIN)) q (ite (xor (< a 0) (< b 0)) MIN MAX)))) \
+(define-fun sabs ((v Int)) Int (ite (= v MIN) MAX (ite (< v 0) (- v) v)))";
+
+/// [`INT_PRODUCT`]'s `mul`, in Rust (i128: exact), operator for operator;
+/// z3 evaluates `mul` on samples and must agree with it.
+fn int_mul(a: i32, b: i32) -> i32 {
+    let q = (i128::from(a) * i128::from(b)).div_euclid(1 << 24);
+    match i32::try_from(q) {
+        Ok(q) => q,
+        Err(_) if (a < 0) != (b < 0) => i32::MIN,
+        Err(_) => i32::MAX,
+    }
+}
+
+/// An SMT-LIB integer as z3 prints it (`5`, `(- 5)`).
+fn smt_int(text: &str) -> i128 {
+    let t = text.trim();
+    match t.strip_prefix("(-").and_then(|r| r.strip_suffix(')')) {
+        Some(n) => -n.trim().parse::<i128>().unwrap_or_else(|e| panic!("{t}: {e}")),
+        None => t.parse().unwrap_or_else(|e| panic!("{t}: {e}")),
+    }
+}
+
+/// An SMT-LIB integer literal (a negative one as `(- n)`).
+fn lit(v: i32) -> String {
+    if v < 0 {
+        format!("(- {})", -i64::from(v))
+    } else {
+        v.to_string()
+    }
+}
+
+/// 48 boundary words: zero, +-1 LSB, the ends, +-1.0 and its neighbours,
+/// +-0.5, the saturation threshold of a product with 1.0, powers of two.
+fn boundary_words() -> Vec<i32> {
+    let one = 1i32 << 24;
+    let mut v = vec![0, 1, -1, i32::MIN, i32::MIN + 1, i32::MAX, i32::MAX - 1, one, -one, one - 1, -one + 1];
+    v.extend([one + 1, -one - 1, one / 2, -one / 2, 46_341 << 12, -(46_341 << 12), 3, -3, 0x00ff_ffff, -0x00ff_ffff]);
+    for k in [4, 8, 12, 16, 20, 23, 25, 28, 30] {
+        v.extend([1 << k, -(1 << k), (1 << k) - 1]);
+    }
+    v
+}
+
+/// `I8F24`, a factor in `[-1, 1]` does not grow the other: proved by z3
+/// over the integers ([`INT_PRODUCT`]), for every pair of 32-bit words;
+/// with it, that the transcription is exact (no 64-bit wrap), that the
+/// premises are satisfiable, that the fact fails for a factor 1 LSB above
+/// 1.0 (z3's counterexample replayed on the kernel's multiply), and that
+/// z3's evaluation of `mul` equals [`int_mul`] on samples.
+#[test]
+#[ignore = "needs z3: proofs/smt/run.sh"]
+fn i8f24_factor_lemma_is_proved_by_z3_over_the_integers() {
+    use kernel::Scalar;
+    let t0 = Instant::now();
+    let mut z = smt::z3::Z3::start();
+    let timeout = smt::z3::property_timeout_ms();
+    let premises = |bound: u32| format!("(assert (word x)) (assert (word y)) (assert (<= (sabs y) {bound}))");
+    let mut check = |goal: &str| {
+        z.reset();
+        z.send(INT_PRODUCT);
+        z.send("(declare-const x Int) (declare-const y Int)");
+        z.send(goal);
+        let r = z.check(timeout, false, false);
+        (r, if r == smt::z3::Sat::Sat { z.values(&["x".to_string(), "y".to_string()]) } else { Vec::new() })
+    };
+    // The 64-bit product of two words never wraps.
+    let (r, _) = check("(assert (word x)) (assert (word y)) (assert (not (nowrap x y)))");
+    assert_eq!(r, smt::z3::Sat::Unsat, "the integer transcription is not exact");
+    // The fact, with `y` the factor in [-1, 1] (the other way round is the
+    // same formula with the names swapped: `mul` is symmetric).
+    let one = 1u32 << 24;
+    let (r, _) = check(&format!("{} (assert (not (<= (sabs (mul x y)) (sabs x))))", premises(one)));
+    assert_eq!(r, smt::z3::Sat::Unsat, "the factor lemma is not proved");
+    let (r, _) = check(&premises(one));
+    assert_eq!(r, smt::z3::Sat::Sat, "vacuous: no input satisfies the premises");
+    // A factor 1 LSB above 1.0 can grow the other: z3 finds it, and the
+    // kernel's multiply really does.
+    let (r, xy) = check(&format!("{} (assert (not (<= (sabs (mul x y)) (sabs x))))", premises(one + 1)));
+    assert_eq!(r, smt::z3::Sat::Sat, "a factor above 1.0 should be refuted");
+    let (x, y) = (smt_int(&xy[0]), smt_int(&xy[1]));
+    let (x, y) = (I8F24::from_bits(x as i32), I8F24::from_bits(y as i32));
+    let p = Scalar::times(x, y);
+    assert!(y.saturating_abs().to_bits() as u32 == one + 1, "{y}");
+    assert!(p.saturating_abs() > x.saturating_abs(), "z3's counterexample {x} * {y} = {p} does not replay");
+    println!("I8F24 factor lemma, refuted for a factor of 1.0 + 1 LSB: {x} * {y} = {p}");
+    // z3's `mul` is `int_mul`.
+    let words = boundary_words();
+    let mut pairs: Vec<(i32, i32)> = words.iter().flat_map(|&a| words.iter().map(move |&b| (a, b))).collect();
+    let mut seed = 0x6a09_e667_f3bc_c909u64;
+    for _ in 0..2000 {
+        let a = xorshift(&mut seed) as i32;
+        let b = (xorshift(&mut seed) % (2 * u64::from(one) + 1)) as i64 - i64::from(one);
+        pairs.push((a, b as i32));
+        pairs.push((a, xorshift(&mut seed) as i32));
+    }
+    z.reset();
+    z.send(INT_PRODUCT);
+    let terms: Vec<String> = pairs.iter().map(|&(a, b)| format!("(mul {} {})", lit(a), lit(b))).collect();
+    for ((a, b), got) in pairs.iter().zip(z.simplify_many(&terms)) {
+        assert_eq!(smt_int(&got), i128::from(int_mul(*a, *b)), "mul {a} {b}");
+    }
+    println!(
+        "I8F24 factor lemma: proved by z3 over the integers ({} checks, z3's mul = int_mul on {} pairs) in {:.1} s",
+        z.checks,
+        pairs.len(),
+        t0.elapsed().as_secs_f64()
+    );
+}
+
+/// The integer transcription is the kernel's multiply (`Scalar::times` for
+/// `I8F24`) and `fixed`'s `saturating_mul` (which `SymFx::times` is read
+/// from): on every word times +-1.0 and +-(1.0 - 1 LSB) (the factor's ends
+/// and their neighbours: 2^34 products), every factor in `[-1, 1]` (2^25 + 1
+/// words) times each boundary word, and 4,000,000 random pairs.
+#[test]
+#[ignore = "2^34 products: proofs/smt/run.sh runs it in release"]
+fn i8f24_integer_product_is_the_kernels_multiply() {
+    use kernel::Scalar;
+    let t0 = Instant::now();
+    let same = |a: i32, b: i32| {
+        let (x, y) = (I8F24::from_bits(a), I8F24::from_bits(b));
+        let want = int_mul(a, b);
+        assert_eq!(Scalar::times(x, y).to_bits(), want, "{a} * {b}");
+        assert_eq!(x.saturating_mul(y).to_bits(), want, "{a} * {b} (fixed)");
+    };
+    let one = 1i32 << 24;
+    split(u32::MAX, |lo, hi| {
+        for u in lo..=hi {
+            let a = std::hint::black_box(u) as i32;
+            for b in [one, -one, one - 1, -one + 1] {
+                same(a, b);
+            }
+        }
+    });
+    let words = boundary_words();
+    split(2 * one as u32, |lo, hi| {
+        for u in lo..=hi {
+            let b = u as i32 - one;
+            for &a in &words {
+                same(a, b);
+            }
+        }
+    });
+    let mut seed = 0xbb67_ae85_84ca_a73bu64;
+    for _ in 0..2_000_000 {
+        let a = xorshift(&mut seed) as i32;
+        let b = (xorshift(&mut seed) % (2 * one as u64 + 1)) as i64 - i64::from(one);
+        same(a, b as i32);
+        same(a, xorshift(&mut seed) as i32);
+    }
+    println!(
+        "I8F24 integer product = the kernel's multiply: every word times +-1.0 and +-(1.0 - 1 LSB), \
+         every factor in [-1, 1] times {} boundary words, 4,000,000 random pairs, in {:.1} s",
+        words.len(),
         t0.elapsed().as_secs_f64()
     );
 }
