@@ -111,8 +111,27 @@ fn ops(k: &mut Checked<Counted>, request: Option<Request<Counted>>) -> u64 {
     OPS.with(Cell::get)
 }
 
+/// The sentence of `lib.rs`'s documentation that states the figures, as
+/// [`float_operations_per_tick`] measures them: the range, then each tick.
+fn stated(idle: u64, accept: u64, moving: u64, stopping: u64) -> String {
+    let all = [idle, accept, moving, stopping];
+    let (lo, hi) = (all.iter().min().copied().unwrap_or(0), all.iter().max().copied().unwrap_or(0));
+    format!(
+        "a kernel tick runs {lo}-{hi} scalar operations (arithmetic, min/max, comparisons; idle {idle}, \
+         accepting a target {accept}, moving {moving}, soft stop {stopping}:"
+    )
+}
+
+/// `lib.rs`'s documentation as one line of words (its `//!` lines joined).
+fn lib_doc() -> String {
+    let doc: Vec<&str> = include_str!("lib.rs").lines().filter_map(|l| l.strip_prefix("//!")).map(str::trim).collect();
+    doc.join(" ")
+}
+
 /// The figures `lib.rs` states: an operational tick that accepts a target
-/// and one that moves toward it, and a soft-stop tick.
+/// and one that moves toward it, and a soft-stop tick. Fails when the
+/// documentation's figures are not the ones measured here (the failure
+/// prints the sentence to write).
 #[test]
 fn float_operations_per_tick() {
     let (mut k, _) = operational::<Counted>();
@@ -136,4 +155,6 @@ fn float_operations_per_tick() {
     assert!(idle > 0 && accept > idle && moving > 0 && stopping > 0, "the counter counts, and the run stopped");
     // The bound lib.rs states.
     assert!([idle, accept, moving, stopping].iter().all(|&n| n <= 1500), "{idle} {accept} {moving} {stopping}");
+    let want = stated(idle, accept, moving, stopping);
+    assert!(lib_doc().contains(&want), "proofs/src/lib.rs's documentation should say: \"{want}\"");
 }
