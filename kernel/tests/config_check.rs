@@ -233,6 +233,24 @@ fn the_shipped_configuration_passes() {
     assert!(Validated::new(PAROL6).is_ok());
 }
 
+/// The encoder's jump window (`JointConfig::max_jump_counts`): the counts
+/// the runaway speed covers in a tick plus two encoder frames, rounded up
+/// to a whole count, plus the slack. A whole count is not rounded up (no
+/// motion at all: the slack alone); the least motion is one count more;
+/// the shipped joints' windows exceed the slack. Catches: the rounding
+/// adding a count to a whole number, or none to a fraction.
+#[test]
+fn the_jump_window_rounds_a_fraction_up_and_keeps_a_whole_count() {
+    use kernel::config::JUMP_SLACK_COUNTS;
+    let j = PAROL6.joints[0];
+    let hz = PAROL6.tick_hz;
+    assert_eq!(JointConfig { runaway_velocity: 0.0, ..j }.max_jump_counts(hz), JUMP_SLACK_COUNTS);
+    assert_eq!(JointConfig { runaway_velocity: 1e-6, ..j }.max_jump_counts(hz), JUMP_SLACK_COUNTS + 1);
+    for j in PAROL6.joints {
+        assert!(j.max_jump_counts(hz) > JUMP_SLACK_COUNTS + 1, "{j:?}");
+    }
+}
+
 /// `assert_valid` (what a firmware's configuration constant calls, so an
 /// inconsistent one fails the build) accepts the shipped configuration at
 /// run time too.
