@@ -489,7 +489,7 @@ fn hardware_overrun_faults<S: Scalar>() {
 
 /// A hardware fault faults at once and, while the sensors still report it,
 /// `<ENABLE>` is refused with it as the cause present (PROTOCOL.md 6.5,
-/// CAUSE_ACTIVE; SR-5, SR-21): the fault stays latched with its first
+/// CAUSE_ACTIVE; SR-6, SR-21): the fault stays latched with its first
 /// reason and the outputs at zero; once it is gone, the enable is accepted.
 /// Every hardware fault kind. The tick starts from the sensed hardware fault
 /// (`Kernel::tick_into`), so the enable sees it as a cause detected in its

@@ -1,4 +1,4 @@
-//! The configuration's wiring facts (SAFETY.md SR-1, SR-2, SR-13): a motor
+//! The configuration's wiring facts (SAFETY.md SR-1, SR-2, SR-28): a motor
 //! wired reversed (`motor_reversed`: a positive step turns the joint
 //! negative) and an encoder mounted reversed (`encoder_reversed`: its count
 //! falls as the joint turns positive). The kernel built from such a
