@@ -126,7 +126,10 @@ impl<S: Scalar> Interpolator<S> {
     /// set-point's interval becomes the one spanned by the set-point, the
     /// target and the stopping point (clamped into the previous interval).
     pub fn retarget(&mut self, target: S, speed: S, k: &Profile<S>) {
-        let stop = self.stop_point(k).clamp_between(self.lo, self.hi);
+        // `lo <= hi` always (neither is NaN: `hold` and this function make
+        // them with minNum / maxNum of a finite target), so the clamp needs
+        // no reordering of its bounds (`clamp_between`'s).
+        let stop = self.stop_point(k).max(self.lo).min(self.hi);
         let sp = self.sp;
         self.lo = sp.min(stop).min(target);
         self.hi = sp.max(stop).max(target);

@@ -25,8 +25,12 @@ pub fn stop_scale<S: Scalar>(inv_stop: S, left: i32) -> S {
 pub fn stop_output<S: Scalar>(v0: S, scale: S, prev: S, follow: Option<(S, S)>, done: bool) -> S {
     let env = v0.times(scale).clamp_between(S::ZERO, prev);
     let env = S::select(env.is_finite(), env, S::ZERO);
+    // `prev - step <= prev + step` for the kernel's `step >= 0`, so the
+    // bounds need no reordering (`clamp_between`'s); for a negative `step`
+    // the result lies at `prev + step`, and the last clamp below still
+    // bounds the output.
     let follow = match follow {
-        Some((v, step)) => v.clamp_between(prev.minus(step), prev.plus(step)),
+        Some((v, step)) => v.max(prev.minus(step)).min(prev.plus(step)),
         None => env,
     };
     S::select(done, S::ZERO, follow.clamp_between(S::ZERO, env))

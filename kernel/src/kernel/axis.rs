@@ -176,8 +176,11 @@ impl<S: Scalar> Axis<S> {
             fault.get_or_insert(FaultReason::Numeric { axis });
         }
         // Acceleration limit: within one tick's change of the last
-        // output (which is within +-vmax, so the result is too).
-        v.clamp_between(prev.minus(p.accel_step), prev.plus(p.accel_step))
+        // output (which is within +-vmax, so the result is too). The bounds
+        // are ordered (`accel_step >= 0`: `config::check`), so no
+        // reordering (`clamp_between`'s): the same value, two minNum /
+        // maxNum fewer.
+        v.max(prev.minus(p.accel_step)).min(prev.plus(p.accel_step))
     }
 }
 
