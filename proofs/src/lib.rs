@@ -27,9 +27,9 @@
 //! fails a case that exceeds either (`kani::runner::Footprint`); its report
 //! line gives the largest seen. Draws that only steer the shim's sampling
 //! (`kani::runner::hint`, in `#[cfg(not(kani))]` code) are no symbolic
-//! values. Floating point: a kernel tick runs 844-1258 scalar operations
-//! (arithmetic, min/max, comparisons; idle 870, accepting a target 1258,
-//! moving 844, soft stop 977: `cargo test -p proofs --lib
+//! values. Floating point: a kernel tick runs 859-1273 scalar operations
+//! (arithmetic, min/max, comparisons; idle 885, accepting a target 1273,
+//! moving 859, soft stop 1001: `cargo test -p proofs --lib
 //! float_operations_per_tick -- --nocapture`, which fails above 1500 and
 //! when these figures are not the ones it measures), so
 //! a harness's floating-point footprint is about its ticks times that. In

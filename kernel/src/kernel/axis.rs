@@ -1,13 +1,14 @@
 //! The per-axis pipeline: the state of one axis ([`Axis`]) and what is done
 //! to each axis every tick: **sense** (is the encoder sample valid and
 //! plausible?), **estimate** (exact unwrap, alpha-beta observer) and
-//! **control** in Operational (interpolate, control law, acceleration
-//! limit). The kernel runs these for all six axes in a fixed order; nothing
-//! here changes the supervisor's mode.
+//! **control** (interpolate, control law; computed in every mode, kept in
+//! Operational and the soft stop by `Kernel::motion`). The kernel runs
+//! these for all six axes in a fixed order; nothing here changes the
+//! supervisor's mode.
 
 use super::params::{AxisParams, Params};
 use super::Kernel;
-use crate::config::{AXES, COUNTS_PER_REV};
+use crate::config::COUNTS_PER_REV;
 use crate::control::control_law;
 use crate::homing::AxisHoming;
 use crate::interp::Interpolator;
@@ -57,20 +58,20 @@ impl<S: Scalar> Axis<S> {
         self.path = self.obs.x;
         self.fe_count = 0;
     }
-    /// Following error against the commanded path: farther than `fe`, or
-    /// more than half of it off while moving against the command applied
-    /// last tick (`cmd`), for more than `fe_ticks` ticks is a fault.
-    fn following(&mut self, axis: u8, cmd: S, p: &AxisParams<S>, k: &Params<S>, fault: &mut Option<FaultReason>) {
-        let e = self.path.minus(self.obs.x);
+    /// Following error against the commanded path `path`: farther than
+    /// `fe`, or more than half of it off while moving against the command
+    /// applied last tick (`cmd`), for more than `fe_ticks` ticks is a
+    /// fault. Returns the count of consecutive ticks with an error and
+    /// whether it is a fault; changes nothing.
+    fn following(&self, path: S, cmd: S, p: &AxisParams<S>, k: &Params<S>) -> (u32, bool) {
+        let e = path.minus(self.obs.x);
         let v = self.obs.v;
         let min = p.dir_speed;
         let against = (cmd > min && v < min.neg()) || (cmd < min.neg() && v > min);
         let away = e.abs() > k.fe_half && against;
         let bad = e.abs() > k.fe || away;
-        self.fe_count = if bad { self.fe_count.saturating_add(1) } else { 0 };
-        if self.fe_count > k.fe_ticks {
-            fault.get_or_insert(FaultReason::FollowingError { axis });
-        }
+        let count = if bad { self.fe_count.saturating_add(1) } else { 0 };
+        (count, count > k.fe_ticks)
     }
     /// The measured joint angle from the unwrapped count.
     fn measured(&self, p: &AxisParams<S>) -> S {
@@ -149,38 +150,18 @@ impl<S: Scalar> Axis<S> {
         }
     }
 
-    /// Control for this axis in Stopping: the set-point keeps braking to
-    /// its target; the control law's command, which the ramp envelope then
-    /// bounds. The commanded path is the integral of the outputs here.
-    pub(super) fn brake(&mut self, axis: u8, p: &AxisParams<S>, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
-        let sp = self.interp.setpoint();
-        let (_, ff) = self.interp.advance(&p.profile);
+    /// This axis's set-point step and control-law command, computed and
+    /// not kept: the interpolator after its step, the set-point of this
+    /// tick (where the joint should be now), the command (the feed-forward
+    /// is the set-point's velocity, which takes it to the next one, so the
+    /// joint does not lag by a tick) and whether every input of the law was
+    /// finite.
+    pub(super) fn control(&self, p: &AxisParams<S>, k: &Params<S>) -> (Interpolator<S>, S, S, bool) {
+        let mut interp = self.interp;
+        let sp = interp.setpoint();
+        let (_, ff) = interp.advance(&p.profile);
         let (v, ok) = control_law(sp, ff, self.obs.x, p.kp, p.vmax, k.deadband);
-        if !ok {
-            fault.get_or_insert(FaultReason::Numeric { axis });
-        }
-        v
-    }
-
-    /// Control for this axis in Operational: interpolate, control law,
-    /// saturate, then limit the change from `prev` (last tick's output).
-    fn follow(&mut self, axis: u8, p: &AxisParams<S>, prev: S, k: &Params<S>, fault: &mut Option<FaultReason>) -> S {
-        // The set-point of this tick is where the joint should be now; the
-        // feed-forward is the velocity that takes it to the next one (so the
-        // joint does not lag the set-point by a tick).
-        let sp = self.interp.setpoint();
-        let (_, ff) = self.interp.advance(&p.profile);
-        self.path = sp;
-        let (v, ok) = control_law(sp, ff, self.obs.x, p.kp, p.vmax, k.deadband);
-        if !ok {
-            fault.get_or_insert(FaultReason::Numeric { axis });
-        }
-        // Acceleration limit: within one tick's change of the last
-        // output (which is within +-vmax, so the result is too). The bounds
-        // are ordered (`accel_step >= 0`: `config::check`), so no
-        // reordering (`clamp_between`'s): the same value, two minNum /
-        // maxNum fewer.
-        v.max(prev.minus(p.accel_step)).min(prev.plus(p.accel_step))
+        (interp, sp, v, ok)
     }
 }
 
@@ -193,27 +174,27 @@ impl<S: Scalar> Kernel<S> {
         }
     }
 
-    /// Following error of every axis in a moving mode. In Stopping and
-    /// Homing the commanded path first advances by last tick's output
-    /// (Operational set it to the set-point in `follow`).
-    pub(super) fn following(&mut self, integrate: bool, fault: &mut Option<FaultReason>) {
+    /// Following error of every axis, computed in every mode and kept in
+    /// a moving one (`checked = Some(integrate)`). With `integrate` (Stopping
+    /// and Homing) the commanded path first advances by last tick's output
+    /// (Operational set it to the set-point in [`Kernel::motion`]).
+    pub(super) fn following(&mut self, checked: Option<bool>, fault: &mut Option<FaultReason>) {
         let k = &self.p;
+        let integrate = checked == Some(true);
         for (i, ((ax, prev), p)) in self.axes.iter_mut().zip(self.last_out.iter()).zip(k.axes.iter()).enumerate() {
-            if integrate {
-                ax.path = ax.path.plus(prev.times(k.gains.dt));
+            let path = S::select(integrate, ax.path.plus(prev.times(k.gains.dt)), ax.path);
+            // Computed in every mode (`black_box`: the compiler may not move
+            // it under the condition that keeps it).
+            let (count, bad) = core::hint::black_box(ax.following(path, *prev, p, k));
+            if checked.is_some() {
+                ax.path = path;
+                if ax.ready && !ax.needs_reinit {
+                    ax.fe_count = count;
+                    if bad {
+                        fault.get_or_insert(FaultReason::FollowingError { axis: i as u8 });
+                    }
+                }
             }
-            if ax.ready && !ax.needs_reinit {
-                ax.following(i as u8, *prev, p, k, fault);
-            }
-        }
-    }
-
-    /// Operational: interpolate, control law, saturate, for every axis.
-    pub(super) fn follow(&mut self, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
-        let k = &self.p;
-        let axes = self.axes.iter_mut().zip(k.axes.iter()).zip(out.iter_mut()).zip(self.last_out.iter());
-        for (i, (((ax, p), o), prev)) in axes.enumerate() {
-            *o = ax.follow(i as u8, p, *prev, k, fault);
         }
     }
 }

@@ -221,9 +221,18 @@ impl<S: Scalar> Kernel<S> {
     /// (Operational: follow, or start the soft stop on the command timeout;
     /// Homing: the sequencer; Stopping: the ramp; otherwise zero), then the
     /// checks of every state. Not yet latched.
+    ///
+    /// The Operational path in every mode: the set-point generator, the
+    /// control law and the acceleration clamp ([`Kernel::motion`]) and the
+    /// following-error check ([`Kernel::following`]) run for every axis on
+    /// every tick; the mode decides which results are kept. So a tick costs
+    /// about the same in every mode: the soft stop adds its ramp, homing its
+    /// sequencer and a request its intake (`docs/BENCHMARKS.md`, the cost
+    /// by state).
     pub(super) fn supervise(&mut self, limits: u8, fault: &mut Option<FaultReason>, events: &mut Events) -> [S; AXES] {
         let mut out = [S::ZERO; AXES];
         let mut homing_event = None;
+        let mut follow = false;
         match self.mode {
             Mode::Operational => {
                 if self.armed {
@@ -246,7 +255,7 @@ impl<S: Scalar> Kernel<S> {
                         self.since_cmd = 0;
                         events.push(Event::Holding);
                     }
-                    self.follow(&mut out, fault);
+                    follow = true;
                 }
             }
             Mode::Homing if self.home_wait > 0 => {
@@ -261,8 +270,14 @@ impl<S: Scalar> Kernel<S> {
             Mode::Homing => homing_event = self.home_step(limits, &mut out, fault),
             _ => {}
         }
-        if let Mode::Stopping { k, v0, then_home, track } = self.mode {
-            self.ramp(k.saturating_add(1), &v0, track, &mut out, fault);
+        // Operational: follow the set-points; Stopping: the ramp (tick
+        // k + 1); otherwise computed and not kept.
+        let stop = match self.mode {
+            Mode::Stopping { k, v0, track, .. } => Some((k.saturating_add(1), v0, track)),
+            _ => None,
+        };
+        self.motion(follow, stop, &mut out, fault);
+        if let Mode::Stopping { k, then_home, .. } = self.mode {
             if then_home != 0 && k.saturating_add(1) >= self.p.stop_ticks {
                 // The stop before a requested homing is complete.
                 self.transition(Edge::RampTick);
@@ -277,37 +292,81 @@ impl<S: Scalar> Kernel<S> {
         }
         // Following error in every moving mode (the commanded path is the
         // set-point in Operational, the integral of the commands otherwise).
-        match self.mode {
-            Mode::Operational => self.following(false, fault),
+        // Computed in every mode, kept in these (`None`: not kept).
+        let checked = match self.mode {
+            Mode::Operational => Some(false),
             // Not during the settle wait: the paths were set to estimates
             // that may still be catching up with the arm (the observer after
             // a push or a stop); the wait ends by resyncing them to the
             // settled estimates (`kernel/tests/homing.rs` shows a push released
             // as HOME arrives moving the estimate past the bound).
-            Mode::Homing if self.home_wait > 0 => {}
-            Mode::Homing | Mode::Stopping { .. } => self.following(true, fault),
-            _ => {}
-        }
+            Mode::Homing if self.home_wait > 0 => None,
+            Mode::Homing | Mode::Stopping { .. } => Some(true),
+            _ => None,
+        };
+        self.following(checked, fault);
         self.check(limits, &out, fault);
         out
     }
 
-    /// Soft E-stop ramp. The envelope is `v0 * (N - k) / N`, never above
+    /// The motion of every axis: its set-point's next step and the control
+    /// law's command ([`Axis::control`](super::axis::Axis::control)) and the
+    /// Operational output (the command, limited to one tick's change from
+    /// the last output), computed for every axis in every mode, and kept
+    /// when `follow` (with the commanded path and a numeric fault of the
+    /// control law); in the soft stop (`stop = Some((k, v0, track))`: tick
+    /// `k` of the ramp from `v0`) the ramp's output, and the set-point's
+    /// step and a numeric fault if `track`.
+    ///
+    /// The soft-stop ramp: the envelope is `v0 * (N - k) / N`, never above
     /// the previous output in magnitude, exactly zero from `k = N` on; inside
     /// it each joint keeps following its set-point, which brakes to its
     /// target (the set-points are acceleration-limited and stop *at* their
     /// targets), so a stop that starts while a set-point is still braking
     /// ends where the set-point ends, not a ramp's length beyond it.
-    fn ramp(&mut self, k: u32, v0: &[S; AXES], track: bool, out: &mut [S; AXES], fault: &mut Option<FaultReason>) {
+    fn motion(
+        &mut self,
+        follow: bool,
+        stop: Option<(u32, [S; AXES], bool)>,
+        out: &mut [S; AXES],
+        fault: &mut Option<FaultReason>,
+    ) {
+        let (k, v0, track) = stop.unwrap_or((1, self.last_out, false));
+        let stopping = stop.is_some();
         let scale = self.stop_scale(k);
+        let done = k >= self.p.stop_ticks;
         let kp = &self.p;
         let axes =
             self.axes.iter_mut().zip(kp.axes.iter()).zip(out.iter_mut()).zip(v0.iter()).zip(self.last_out.iter());
         for (i, ((((ax, p), o), v), prev)) in axes.enumerate() {
-            // Following, the output may fall no faster than the ramp itself
-            // (vmax / N per tick); the arithmetic is `ramp::stop_output`.
-            let follow = if track { Some((ax.brake(i as u8, p, kp, fault), p.stop_step)) } else { None };
-            *o = ramp::stop_output(*v, scale, *prev, follow, k >= self.p.stop_ticks);
+            let (interp, sp, cmd, ok) = ax.control(p, kp);
+            // Operational: the acceleration limit, within one tick's change
+            // of the last output (which is within +-vmax, so the result is
+            // too). The bounds are ordered (`accel_step >= 0`:
+            // `config::check`), so no reordering (`clamp_between`'s).
+            let followed = cmd.max(prev.minus(p.accel_step)).min(prev.plus(p.accel_step));
+            // Computed in every mode: `black_box` keeps the compiler from
+            // moving the computation under the conditions below that keep
+            // it (the set-point step and the law feed `followed`).
+            let (followed, ok) = core::hint::black_box((followed, ok));
+            let moves = follow || (stopping && track);
+            if moves {
+                ax.interp = interp;
+                if !ok {
+                    fault.get_or_insert(FaultReason::Numeric { axis: i as u8 });
+                }
+            }
+            if follow {
+                // The set-point of this tick is where the joint should be
+                // now (the commanded path).
+                ax.path = sp;
+                *o = followed;
+            } else if stopping {
+                // The ramp: following, the output may fall no faster than
+                // the ramp itself (vmax / N per tick; `ramp::stop_output`).
+                let braking = if track { Some((cmd, p.stop_step)) } else { None };
+                *o = ramp::stop_output(*v, scale, *prev, braking, done);
+            }
         }
     }
 
