@@ -1,28 +1,43 @@
 #!/usr/bin/env bash
 # Mutation testing of the kernel's logic files with cargo-mutants (SAFETY.md
-# 7a, docs/MUTANTS.md). Not part of ci/test.sh: it takes 2.5 to 3 hours
-# on two cores shared with other work (498 mutants, about 20 s each). Installs the pinned
-# cargo-mutants if missing.
+# 7a, docs/MUTANTS.md). Not part of ci/test.sh: it takes about 1.5 to 2 hours
+# on two cores shared with other work (534 mutants, 10-20 s each). Installs
+# the pinned cargo-mutants if missing.
 #
 #   ci/mutants.sh [FILE...]     mutants of FILE (default: every logic file,
 #                               below), tested by the kernel's own tests
 #   ci/mutants.sh summary       per-file counts of the last run's outcomes
 #
-# The run tests the committed HEAD, not the working tree: HEAD is exported
-# (git archive) to a scratch directory and mutated in place there, one file
-# after another, so the build directory is shared between the files and
-# uncommitted work in the checkout is neither mutated nor tested. Results go
-# to $MUTANTS_OUT/<file stem>/mutants.out (default /tmp/mutants): caught.txt,
-# missed.txt, timeout.txt, unviable.txt, diff/ (each mutant as a patch).
+# The run tests one commit, not the working tree: the commit is exported
+# (git archive) to a scratch directory, so uncommitted work in the checkout
+# is neither mutated nor tested, and the files of one run are all mutated at
+# that commit. Results go to $MUTANTS_OUT/mutants.out (default
+# /tmp/mutants): outcomes.json (every mutant's verdict, written as the run
+# goes), caught.txt, missed.txt, timeout.txt, unviable.txt, diff/ (each
+# mutant as a patch), log/ (each mutant's build and test output).
+#
+# What makes a mutant cheap (the measured figures: docs/MUTANTS.md):
+# - every mutant rebuilds the kernel's tests, and a test binary compiles the
+#   whole generic kernel for both scalars again; `kernel/tests/*.rs` are 16
+#   binaries, so the scratch copy builds them as one (`tests/all.rs`: each
+#   file a module, `autotests = false`): the same tests, one compilation;
+# - the profile below (no debug info, opt-level 1 for the kernel, the
+#   monitor and `fixed`): opt-level 0 builds faster still but runs the
+#   tests 15 times slower. It is written into the scratch copy's
+#   .cargo/config.toml, so no other build sees it;
+# - two mutants at a time (`--jobs 2`, each in its own copy of the scratch
+#   tree) under `nice`: the compiler's serial front end leaves a core idle.
 #
 # Environment: MUTANTS_OUT (output root), MUTANTS_TIMEOUT (test timeout per
-# mutant in seconds, default 30: the kernel's tests take about 1.5 s),
-# MUTANTS_SRC (scratch directory, default a fresh mktemp -d), MUTANTS_REV
-# (the commit to mutate, default HEAD), MUTANTS_TESTS_REV (take the
-# kernel's integration tests, kernel/tests/, from this commit instead: newer
-# tests run against an older kernel), MUTANTS_ITERATE=1 (test only
-# the mutants not caught in the previous run in $MUTANTS_OUT: cargo-mutants
-# --iterate). A file the commit does not have is skipped.
+# mutant in seconds, default 20: the kernel's tests take about 5 s, the
+# mutants that break the homing sequencing never end a homing run and are
+# counted as timeouts after it), MUTANTS_JOBS (default 2), MUTANTS_SHARD
+# (k/n: only that shard, every n-th mutant from the k-th, for splitting one
+# run across invocations; give every shard the same MUTANTS_REV and its own
+# MUTANTS_OUT), MUTANTS_SRC (scratch directory, default a fresh mktemp -d),
+# MUTANTS_REV (the commit to mutate, default HEAD), MUTANTS_ARGS (further
+# cargo-mutants arguments, e.g. `--re PATTERN` or `--iterate`). A file the
+# commit does not have is skipped.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -43,27 +58,32 @@ FILES=(
     kernel/src/control.rs
 )
 
+# Per-file counts from outcomes.json (one or more output directories).
 summary() {
-    printf '%-32s %7s %7s %9s %8s %7s\n' file caught missed unviable timeout score
-    local tc=0 tm=0 tu=0 tt=0
-    for d in "$OUT"/*/mutants.out; do
-        [ -d "$d" ] || continue
-        local c m u t
-        c=$(cat "$d/caught.txt" "$d/previously_caught.txt" 2>/dev/null | grep -c . || true)
-        m=$(grep -c . "$d/missed.txt" || true)
-        u=$(grep -c . "$d/unviable.txt" || true)
-        t=$(grep -c . "$d/timeout.txt" || true)
-        tc=$((tc + c)) tm=$((tm + m)) tu=$((tu + u)) tt=$((tt + t))
-        printf '%-32s %7d %7d %9d %8d %6s%%\n' "$(basename "$(dirname "$d")")" "$c" "$m" "$u" "$t" \
-            "$(awk -v c="$c" -v m="$m" 'BEGIN { if (c + m) printf "%.1f", 100 * c / (c + m); else print "-" }')"
-    done
-    printf '%-32s %7d %7d %9d %8d %6s%%\n' total "$tc" "$tm" "$tu" "$tt" \
-        "$(awk -v c="$tc" -v m="$tm" 'BEGIN { if (c + m) printf "%.1f", 100 * c / (c + m); else print "-" }')"
+    local dirs=("$@")
+    [ "${#dirs[@]}" -gt 0 ] || dirs=("$OUT")
+    local files=()
+    for d in "${dirs[@]}"; do files+=("$d/mutants.out/outcomes.json"); done
+    jq -rs '
+      [ .[].outcomes[] | select(.scenario | type == "object")
+        | { file: .scenario.Mutant.file, s: .summary } ]
+      | group_by(.file)
+      | map({ file: .[0].file,
+              c: map(select(.s == "CaughtMutant")) | length,
+              m: map(select(.s == "MissedMutant")) | length,
+              u: map(select(.s == "Unviable")) | length,
+              t: map(select(.s == "Timeout")) | length })
+      | (map([.file, .c, .m, .u, .t]) + [["total", (map(.c) | add), (map(.m) | add), (map(.u) | add), (map(.t) | add)]])[]
+      | @tsv' "${files[@]}" |
+        awk -F'\t' 'BEGIN { printf "%-34s %6s %6s %6s %8s %7s %7s\n", "file", "tested", "caught", "missed", "unviable", "timeout", "score" }
+            { s = ($2 + $3) ? sprintf("%.1f%%", 100 * $2 / ($2 + $3)) : "-"
+              printf "%-34s %6d %6d %6d %8d %7d %7s\n", $1, $2 + $3 + $4 + $5, $2, $3, $4, $5, s }'
     echo "score = caught / (caught + missed); timeouts and unviable mutants excluded"
 }
 
 if [ "${1:-}" = summary ]; then
-    summary
+    shift
+    summary "$@"
     exit 0
 fi
 
@@ -77,32 +97,49 @@ mkdir -p "$src" "$OUT"
 rev="${MUTANTS_REV:-HEAD}"
 git archive "$rev" | tar -x -C "$src"
 echo "ci/mutants.sh: $rev = $(git rev-parse --short "$rev") in $src, results in $OUT"
-if [ -n "${MUTANTS_TESTS_REV:-}" ]; then
-    rm -rf "$src/kernel/tests"
-    git archive "$MUTANTS_TESTS_REV" kernel/tests | tar -x -C "$src"
-    echo "ci/mutants.sh: with kernel/tests/ of $MUTANTS_TESTS_REV"
-fi
-iterate=()
-[ "${MUTANTS_ITERATE:-0}" = 1 ] && iterate=(--iterate)
 
-# Each mutant rebuilds the kernel and its ~12 test binaries; without debug
-# info and at opt-level 1 that takes about 15-25 s instead of 30-40 s on
-# this machine (the tests still run in under a second).
-export CARGO_PROFILE_DEV_DEBUG="${CARGO_PROFILE_DEV_DEBUG:-0}"
-export CARGO_PROFILE_DEV_PACKAGE_KERNEL_DEBUG="${CARGO_PROFILE_DEV_PACKAGE_KERNEL_DEBUG:-0}"
-export CARGO_PROFILE_DEV_PACKAGE_KERNEL_OPT_LEVEL="${CARGO_PROFILE_DEV_PACKAGE_KERNEL_OPT_LEVEL:-1}"
+# The kernel's integration tests as one test binary (above).
+(
+    cd "$src/kernel"
+    tests=(tests/*.rs)
+    {
+        echo "// Every kernel/tests file as a module of one test crate (ci/mutants.sh)."
+        for t in "${tests[@]}"; do
+            echo "#[path = \"$(basename "$t")\"]"
+            echo "mod $(basename "$t" .rs);"
+        done
+    } >tests/all.rs
+    sed -i '0,/^\[package\]$/s//[package]\nautotests = false/' Cargo.toml
+    printf '\n[[test]]\nname = "all"\npath = "tests/all.rs"\n' >>Cargo.toml
+)
+mkdir -p "$src/.cargo"
+cat >>"$src/.cargo/config.toml" <<'EOF'
 
-baseline=()
+# ci/mutants.sh: the mutation run's build profile.
+[profile.dev]
+debug = 0
+[profile.dev.package.kernel]
+opt-level = 1
+debug = 0
+[profile.dev.package.monitor]
+opt-level = 1
+[profile.dev.package.fixed]
+opt-level = 1
+EOF
+
+args=()
 for f in "${FILES[@]}"; do
-    [ -f "$src/$f" ] || { echo "== $f: not in $rev, skipped"; continue; }
-    name="$(basename "$f" .rs)"
-    echo "== $f ($(date -u +%H:%M:%S))"
-    # Exit status 2 means missed mutants, 3 timeouts: both are results.
-    # --features proof-states: `Kernel::from_spec` (proof-only code in
-    # invariant.rs) and its tests (kernel/tests/from_spec.rs).
-    (cd "$src" && cargo mutants -p kernel --test-package kernel --features proof-states -f "$f" --in-place --no-shuffle \
-        --timeout "${MUTANTS_TIMEOUT:-30}" --build-timeout 600 "${baseline[@]}" "${iterate[@]}" \
-        --output "$OUT/$name") || { rc=$?; [ "$rc" -eq 2 ] || [ "$rc" -eq 3 ]; }
-    baseline=(--baseline skip)
+    if [ -f "$src/$f" ]; then args+=(-f "$f"); else echo "== $f: not in $rev, skipped"; fi
 done
+[ -n "${MUTANTS_SHARD:-}" ] && args+=(--shard "$MUTANTS_SHARD")
+# shellcheck disable=SC2206 # MUTANTS_ARGS is split on purpose
+[ -n "${MUTANTS_ARGS:-}" ] && args+=(${MUTANTS_ARGS})
+
+# Exit status 2 means missed mutants, 3 timeouts: both are results.
+# --features proof-states: `Kernel::from_spec` (proof-only code in
+# invariant.rs) and its tests (kernel/tests/from_spec.rs, boundaries.rs).
+# The baseline (the unmutated tree builds and passes) runs first.
+(cd "$src" && nice -n "${MUTANTS_NICE:-15}" cargo mutants -p kernel --test-package kernel --features proof-states \
+    --no-shuffle --jobs "${MUTANTS_JOBS:-2}" --timeout "${MUTANTS_TIMEOUT:-20}" --build-timeout 600 \
+    --output "$OUT" "${args[@]}") || { rc=$?; [ "$rc" -eq 2 ] || [ "$rc" -eq 3 ]; }
 summary
