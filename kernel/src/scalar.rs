@@ -819,6 +819,20 @@ mod tests {
         }
     }
 
+    /// `f32`'s `div_int` by a count below one is zero, and its
+    /// `from_decimal` off the division path (a mantissa above 2^24) rounds
+    /// as the text parser does. `kernel/tests/scalar.rs` checks both at
+    /// length; they are here too because both functions are `#[inline]`,
+    /// and LLVM's coverage does not count their copies inlined into another
+    /// crate's tests.
+    #[test]
+    fn f32_div_int_below_one_and_a_decimal_beyond_the_division_path() {
+        assert_eq!(Scalar::div_int(3.0f32, 0).to_bits(), 0);
+        assert_eq!(Scalar::div_int(3.0f32, -1).to_bits(), 0);
+        assert_eq!(<f32 as Scalar>::from_decimal(false, (1 << 24) + 1, 0), Some(16_777_216.0));
+        assert_eq!(<f32 as Scalar>::from_decimal(true, 16_803_599, 7), "-1.6803599".parse::<f32>().ok());
+    }
+
     #[test]
     fn clamp_between_accepts_either_order() {
         assert_eq!(5.0f32.clamp_between(3.0, 1.0), 3.0);
