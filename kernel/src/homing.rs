@@ -74,7 +74,7 @@ pub struct HomingStep<S> {
 }
 
 /// One axis's homing state.
-#[derive(Clone, Copy, Debug, PartialEq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AxisHoming<S> {
     phase: Phase,
     /// Position where the switch released (back-off and release phases).
@@ -89,6 +89,27 @@ pub struct AxisHoming<S> {
     /// A tighter fast-seek travel bound for this run (a joint homed
     /// before), if any.
     fast_bound: Option<S>,
+}
+
+/// Hashes what decides this axis's future (for model checkers, through
+/// `Kernel`'s `Hash`): the phase and the velocity always; the run's record
+/// (release point, tick count, phase origin, ticks at rest, fast-seek
+/// bound) only in the phases that read it. In `Idle` and `Done` no method
+/// reads the record before [`AxisHoming::reset`] overwrites it: `step`
+/// returns at once with a zero velocity (and zeroes `vel`), `start` acts
+/// only in `Waiting`, `shift` and `limit_travel` only write it, and the
+/// fields are private to this module. Two axes equal but for the record in
+/// those phases therefore behave alike from then on, so merging them is
+/// exact (`tests::idle_and_done_forget_the_run_record`); every field
+/// counts in the other phases (`tests::every_field_counts_while_in_a_run`).
+impl<S: Scalar + core::hash::Hash> core::hash::Hash for AxisHoming<S> {
+    fn hash<H: core::hash::Hasher>(&self, h: &mut H) {
+        self.phase.hash(h);
+        self.vel.hash(h);
+        if !matches!(self.phase, Phase::Idle | Phase::Done) {
+            (self.anchor, self.ticks, self.origin, self.rest, self.fast_bound).hash(h);
+        }
+    }
 }
 
 impl<S: Scalar> Default for AxisHoming<S> {
@@ -329,6 +350,156 @@ mod tests {
             prev = s.velocity;
             x += s.velocity * 0.001;
         }
+    }
+
+    use crate::Fx;
+    use core::hash::{Hash, Hasher};
+    use std::hash::DefaultHasher;
+
+    fn h(a: &AxisHoming<Fx>) -> u64 {
+        let mut s = DefaultHasher::new();
+        a.hash(&mut s);
+        s.finish()
+    }
+
+    fn fx(x: f32) -> Fx {
+        Fx::from_f32(x)
+    }
+
+    /// The run records the tests set in place of the default: every field
+    /// that `Hash` leaves out in `Idle` and `Done`, at values a run leaves.
+    fn records(phase: Phase) -> [AxisHoming<Fx>; 4] {
+        let base = AxisHoming { phase, ..AxisHoming::default() };
+        [
+            base,
+            AxisHoming {
+                anchor: Some(fx(0.3)),
+                ticks: 7,
+                origin: fx(-1.25),
+                rest: 2,
+                fast_bound: Some(fx(0.5)),
+                ..base
+            },
+            AxisHoming { anchor: None, ticks: 1, origin: fx(2.0), rest: 0, fast_bound: None, ..base },
+            AxisHoming {
+                anchor: Some(fx(-2.0)),
+                ticks: u32::MAX,
+                origin: fx(0.0),
+                rest: 50,
+                fast_bound: Some(fx(0.01)),
+                ..base
+            },
+        ]
+    }
+
+    /// One operation of the axis's interface, and what it returned.
+    #[derive(Debug, PartialEq)]
+    enum Seen {
+        Step(HomingStep<Fx>),
+        Phase(Phase),
+        Velocity(Fx),
+        Nothing,
+    }
+
+    const OPS: usize = 10;
+
+    fn apply(a: &mut AxisHoming<Fx>, op: usize, p: &HomingParams<Fx>) -> Seen {
+        match op {
+            0 => Seen::Step(a.step(false, fx(0.2), p)),
+            1 => Seen::Step(a.step(true, fx(0.2), p)),
+            2 => Seen::Step(a.step(false, fx(-3.0), p)),
+            3 => {
+                a.start(fx(0.4));
+                Seen::Nothing
+            }
+            4 => {
+                a.limit_travel(fx(0.25));
+                Seen::Nothing
+            }
+            5 => {
+                a.shift(fx(0.125));
+                Seen::Nothing
+            }
+            6 => {
+                a.reset(true);
+                Seen::Nothing
+            }
+            7 => {
+                a.reset(false);
+                Seen::Nothing
+            }
+            8 => Seen::Phase(a.phase()),
+            _ => Seen::Velocity(a.velocity()),
+        }
+    }
+
+    /// The merge `Hash` makes in `Idle` and `Done` is exact: from an axis
+    /// with the default record and from one with any other record, every
+    /// sequence of up to three operations of the axis's interface (each
+    /// step with the switch released and pressed, near and far from the
+    /// origin; start; a travel bound; a shift; both resets; the phase and
+    /// velocity getters) returns the same values and leaves states that
+    /// hash alike. Every sequence of the ten operations (1,110 per pair)
+    /// for three records in each of the two phases.
+    #[test]
+    fn idle_and_done_forget_the_run_record() {
+        let p = HomingParams {
+            fast_toward: fx(-0.5),
+            slow_toward: fx(-0.05),
+            backoff: fx(0.05),
+            timeout_ticks: 8,
+            dv: fx(0.06),
+            max_travel: fx(3.0),
+            phase_travel: fx(0.3),
+            settle_ticks: 2,
+        };
+        let mut pairs = 0;
+        for phase in [Phase::Idle, Phase::Done] {
+            let [base, others @ ..] = records(phase);
+            for other in others {
+                assert_eq!(h(&base), h(&other), "{phase:?}: the record is hashed");
+                for len in 1..=3u32 {
+                    for code in 0..OPS.pow(len) {
+                        let (mut a, mut b) = (base, other);
+                        let mut c = code;
+                        for _ in 0..len {
+                            let op = c % OPS;
+                            c /= OPS;
+                            assert_eq!(apply(&mut a, op, &p), apply(&mut b, op, &p), "{phase:?}, {other:?}, op {op}");
+                            assert_eq!(h(&a), h(&b), "{phase:?}, {other:?}: differ after op {op}: {a:?} / {b:?}");
+                        }
+                        pairs += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(pairs, 2 * 3 * (10 + 100 + 1000));
+    }
+
+    /// Outside `Idle` and `Done` the hash keeps every field: changing any
+    /// one changes it (so the model merges no two axes in a run).
+    #[test]
+    fn every_field_counts_while_in_a_run() {
+        use Phase::*;
+        for phase in [Waiting, FastSeek, BackOff, SlowSeek, Release, Settle] {
+            let a = AxisHoming { phase, ..AxisHoming::default() };
+            let changed = [
+                AxisHoming { anchor: Some(fx(0.0)), ..a },
+                AxisHoming { ticks: 1, ..a },
+                AxisHoming { vel: fx(0.01), ..a },
+                AxisHoming { origin: fx(0.01), ..a },
+                AxisHoming { rest: 1, ..a },
+                AxisHoming { fast_bound: Some(fx(0.0)), ..a },
+                AxisHoming { phase: Done, ..a },
+            ];
+            for b in changed {
+                assert_ne!(h(&a), h(&b), "{b:?} hashes as {a:?}");
+            }
+        }
+        // In Idle and Done the phase and the velocity still count.
+        let done = AxisHoming { phase: Done, ..AxisHoming::<Fx>::default() };
+        assert_ne!(h(&done), h(&AxisHoming { phase: Idle, ..done }));
+        assert_ne!(h(&done), h(&AxisHoming { vel: fx(0.01), ..done }));
     }
 
     #[test]

@@ -254,7 +254,9 @@ impl<S: Scalar> Kernel<S> {
 
 /// Hashes the state that determines the kernel's future behaviour, for model
 /// checkers: everything but the constant parameters, the tick counter and
-/// the fault's timestamp (both only label reports; no decision reads them).
+/// the fault's timestamp (both only label reports; no decision reads them),
+/// and the run record of a homing axis in `Idle` or `Done`, which nothing
+/// reads there (`AxisHoming`'s `Hash`).
 /// Available when the scalar is hashable (the fixed-point variant).
 impl<S: Scalar + core::hash::Hash> core::hash::Hash for Kernel<S> {
     fn hash<H: core::hash::Hasher>(&self, h: &mut H) {

@@ -118,6 +118,18 @@ mutant ignore-hardware-fault kernel/src/kernel.rs \
     '        let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware);' \
     '        let mut fault: Option<FaultReason> = sense.hardware_fault.map(FaultReason::Hardware).filter(|_| false);' \
     small 'SR-21: a hardware fault did not fault in the same tick'
+# The model identifies a homing axis in Idle or Done by its phase and
+# velocity only (`AxisHoming`'s `Hash`: the run record is dead there, and
+# the kernel reaches a finished axis only through `phase()`). The merged
+# states are still explored: a kernel whose finished axis reads its record
+# (reports itself seeking while its tick count is non-zero, which every
+# finished axis has) must fail. (A kernel reading the record in a way that
+# differs between merged states is what `kernel`'s
+# `homing::tests::idle_and_done_forget_the_run_record` fails.)
+mutant done-axis-reads-its-record kernel/src/homing.rs \
+    '        self.phase' \
+    '        if self.phase == Phase::Done && self.ticks > 0 { Phase::FastSeek } else { self.phase }' \
+    homing 'SR-14: an axis of a homing run counted homed before its zero was captured'
 mutant phases-kept-after-homing kernel/src/kernel/homing_seq.rs \
     '            ax.homing.reset(false);' \
     '            let _ = ax;' \

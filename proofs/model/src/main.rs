@@ -84,9 +84,12 @@
 //!   small one it gives complete runs for every arrival order and
 //!   `<HOMEn>` (SR-13, SR-14, SR-16).
 //! - States are identified by `Kernel`'s behavioural hash (everything but the
-//!   tick counter and the fault timestamp, which no decision reads) plus the
-//!   plant. `Kernel<f32>` has no `Hash` (f32 has none): its states are
-//!   identified by its `Debug` text without those two fields (Rust prints
+//!   tick counter and the fault timestamp, which no decision reads, and the
+//!   run record of a homing axis in `Idle` or `Done`, which nothing reads
+//!   there before a new run overwrites it: an exact merge, argued and
+//!   tested as `README.md` describes) plus the plant. `Kernel<f32>` has
+//!   no `Hash` (f32 has none): its states are identified by its `Debug`
+//!   text without the two tick counters (it keeps the run record; Rust prints
 //!   every non-NaN f32 in a form that round-trips, so distinct values give
 //!   distinct text; a stationary arm never makes a NaN, and if it did the
 //!   "no NaN" property would fail).
