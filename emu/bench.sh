@@ -120,7 +120,9 @@ TICK_STACK=$(grep -oE 'worst-case tick stack[^:]*: [0-9]+ bytes \+ [0-9]+ except
 TWIN_LINE="(skipped: EMU_SKIP_TWIN=1)"
 if [ "${EMU_SKIP_TWIN:-0}" != 1 ]; then
     echo "==> whole tick interrupt on the register-level twin (twin/build-image.sh, twin run)"
-    (cd "$ROOT" && twin/build-image.sh && cd twin && cargo build --release --locked -q &&
+    # The twin is its own workspace with its own target directory (the
+    # binary run below), not this script's CARGO_TARGET_DIR.
+    (cd "$ROOT" && twin/build-image.sh && cd twin && env -u CARGO_TARGET_DIR cargo build --release --locked -q &&
         ./target/release/twin run "$ROOT/sim/scenarios/configurator-jog-25hz.scn") >"$OUT/twin_run.txt" 2>&1 || true
     TWIN_LINE="$(sed -n '/^PIT handler (/,/^simulated/p' "$OUT/twin_run.txt" | grep -v '^simulated' || true)"
     [ -n "$TWIN_LINE" ] || TWIN_LINE="(twin run failed; see $OUT/twin_run.txt)"
@@ -309,31 +311,49 @@ $TWIN_LINE
 
 **The streamed tick at or below the C++ one (median <= 1,488, max <= 1,512): not met** (the first
 row). The per-step profile above explains it: sense and estimate, the supervisor's checks, the
-following-error check and the control law, which every tick of a moving arm runs and the C++ tick
-does not have, cost together nearly as much as the whole C++ tick before any set-point is
-generated; the set-point generator (\`Interpolator::advance\`) is the largest single step. It
-tests three candidate speeds (accelerate, cruise, decelerate: the fastest from which the set-point
-can still stop at its target) with the braking test, and tests the chosen one once more with the
-rounding allowance (may the step be clamped to the target?); its clamps are IEEE minNum / maxNum, a
-compare, a NaN test and a select each on FPv4-SP (about 8 instructions), because the clamps rely on
-a NaN operand being ignored. The cruising speed's cap is a per-target constant, computed once when
-a target is accepted (\`Interpolator::retarget\`). One braking evaluation per tick needs the fastest
-admissible speed in closed form (a square root: \`vsqrt.f32\` in f32, none in I8F24) or one
-candidate fewer; both change the set-point profile's values, which the SMT lemma, the Kani
-harnesses, the exhaustive slice, the model check and the recorded traces then have to follow. The
-maximum is the tick that accepts a stream sample: the intake's validation and continuity check,
-the stopping point and \`retarget\` for six joints on top of a streamed tick.
+following-error check and the control law, which every tick runs and the C++ tick does not have,
+cost together about as much as the whole C++ tick before any set-point is generated; the set-point
+generator (\`Interpolator::advance\`) is the largest single step. It tests up to three candidate
+speeds (accelerate, cruise, decelerate: the fastest from which the set-point can still stop at its
+target) with the braking test, and tests the chosen one once more with the rounding allowance (may
+the step be clamped to the target?); its clamps are IEEE minNum / maxNum, a compare, a NaN test and
+a select each on FPv4-SP (about 8 instructions), because the clamps rely on a NaN operand being
+ignored (clamps whose bounds are always ordered skip \`clamp_between\`'s reordering). Skipping the
+later braking tests once a candidate passes keeps every value, but the SMT step's proof of the
+set-point guarantee's one-tick lemma takes several times longer on that form, so the generator
+runs every test. One braking evaluation per tick
+needs the fastest admissible speed in closed form (a square root: \`vsqrt.f32\` in f32, none in
+I8F24) or one candidate fewer; both change the set-point profile's values, which the SMT lemma,
+the Kani harnesses, the exhaustive slice, the model check and the recorded traces then have to
+follow. The maximum is the tick that accepts a stream sample: the intake's validation and
+continuity check, the stopping point and \`retarget\` for six joints on top of a streamed tick.
 
 **Whole-scenario max/min <= 1.15: not met** (the fifth row; per state: "Tick cost by the state the
-tick ends in" above). Each tick does the work of its mode: Boot, Unhomed, SoftEstop and Fault sense,
-estimate and check; Homing adds the sequencer; Operational and Stopping add the set-point generator,
-the control law and the following-error check; a tick that accepts a target adds the intake. A
-constant tick would compute the Operational path in every mode and select the outputs, raising every
-idle tick to the streamed cost, and do the per-target work on every tick; that restructures
-\`supervise\` and the intake, whose per-mode behaviour the model check and the proofs cover, and is
-not done. What the 1 kHz deadline needs is a bounded maximum: the whole tick interrupt on the twin
-(above) at its maximum, divided by 600 MHz at one instruction per cycle (an estimate), is a small
-fraction of the 1 ms period, and a tick that overruns latches \`TickOverrun\` (SR-21 in SAFETY.md).
+tick ends in" above). The tick computes the Operational path in every mode: every axis's set-point
+step, control law, acceleration clamp and following-error check run on every tick and the mode
+selects what is kept (\`Kernel::motion\`, \`Kernel::following\`; \`core::hint::black_box\` keeps the
+compiler from moving the work under the conditions that keep it), so Boot, Unhomed, SoftEstop and
+Fault ticks cost about what an Operational one costs in f32 (in fixed point the braking
+tests' branches make the Operational tick vary more). What remains: homing adds its sequencer, the
+soft stop its ramp (\`ramp::stop_output\`), and the tick that accepts a target the intake
+(validation, continuity, stopping points and \`retarget\` for six joints): the maximum. Running the
+intake's arithmetic on every tick as well (on the current targets, not kept) would raise every
+other tick toward that maximum, at the cost of the intake's work on every tick and a tick stack
+further above its goal (the intake's copy of a target and its per-axis results), so it is not done.
+What the 1 kHz deadline needs is a bounded maximum: the whole tick interrupt on the twin (above) at
+its maximum, divided by 600 MHz at one instruction per cycle (an estimate), is a small fraction of
+the 1 ms period, and a tick that overruns latches \`TickOverrun\` (SR-21 in SAFETY.md).
+
+**Tick stack of at most 512 bytes: not met** (the figure above: the static bound of the tick
+interrupt's call chain, \`firmware/build.sh\`):
+
+\`\`\`text
+$(grep -E '^handler PIT:' "$OUT/firmware_build.txt" || echo "(no handler line; see $OUT/firmware_build.txt)")
+\`\`\`
+
+Most of it is the frame of \`Controller::kernel_step\`, into which the whole kernel tick is inlined:
+the request (a motion target of twelve scalars), the six outputs and the events, and the spills of
+the inlined per-axis steps.
 
 **Release image of at most 64 KiB: not met** (the figure above; where the bytes go: the per-crate
 table below). Fixed or nearly fixed parts: the Teensy boot header (\`.boot\`, 8 KiB), the USB device
