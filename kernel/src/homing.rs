@@ -94,14 +94,15 @@ pub struct AxisHoming<S> {
 /// Hashes what decides this axis's future (for model checkers, through
 /// `Kernel`'s `Hash`): the phase and the velocity always; the run's record
 /// (release point, tick count, phase origin, ticks at rest, fast-seek
-/// bound) only in the phases that read it. In `Idle` and `Done` no method
-/// reads the record before [`AxisHoming::reset`] overwrites it: `step`
-/// returns at once with a zero velocity (and zeroes `vel`), `start` acts
-/// only in `Waiting`, `shift` and `limit_travel` only write it, and the
-/// fields are private to this module. Two axes equal but for the record in
-/// those phases therefore behave alike from then on, so merging them is
-/// exact (`tests::idle_and_done_forget_the_run_record`); every field
-/// counts in the other phases (`tests::every_field_counts_while_in_a_run`).
+/// bound) only in the phases that read it. In `Idle` and `Done` nothing
+/// outside the record depends on it before [`AxisHoming::reset`]
+/// overwrites it: `step` returns at once with a zero velocity (and zeroes
+/// `vel`), `start` acts only in `Waiting`, `limit_travel` only writes the
+/// record and `shift` only moves it, and the fields are private to this
+/// module. Two axes equal but for the record in those phases therefore
+/// behave alike from then on, so merging them is exact
+/// (`tests::idle_and_done_forget_the_run_record`); every field counts in
+/// the other phases (`tests::every_field_counts_while_in_a_run`).
 impl<S: Scalar + core::hash::Hash> core::hash::Hash for AxisHoming<S> {
     fn hash<H: core::hash::Hasher>(&self, h: &mut H) {
         self.phase.hash(h);
