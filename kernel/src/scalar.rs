@@ -821,7 +821,7 @@ mod tests {
 
     /// `f32`'s `div_int` by a count below one is zero, and its
     /// `from_decimal` off the division path (a mantissa above 2^24) rounds
-    /// as the text parser does. `kernel/tests/scalar.rs` checks both at
+    /// as the text parser does; more decimals than allowed are refused. `kernel/tests/scalar.rs` checks both at
     /// length; they are here too because both functions are `#[inline]`,
     /// and LLVM's coverage does not count their copies inlined into another
     /// crate's tests.
@@ -831,6 +831,7 @@ mod tests {
         assert_eq!(Scalar::div_int(3.0f32, -1).to_bits(), 0);
         assert_eq!(<f32 as Scalar>::from_decimal(false, (1 << 24) + 1, 0), Some(16_777_216.0));
         assert_eq!(<f32 as Scalar>::from_decimal(true, 16_803_599, 7), "-1.6803599".parse::<f32>().ok());
+        assert_eq!(<f32 as Scalar>::from_decimal(false, 12, MAX_DECIMALS + 1), None);
     }
 
     #[test]
