@@ -26,6 +26,7 @@ both!(
     counts_out_of_range_are_lost_samples,
     boot_timeout_names_the_unready_encoder_on_time,
     after_a_boot_timeout_enable_waits_for_the_missing_encoder,
+    a_home_queued_in_boot_fails_at_the_boot_timeout,
     an_estimate_beyond_the_absolute_bound_is_a_numeric_fault,
     hardware_overrun_faults,
     enable_is_refused_while_a_hardware_fault_persists,
@@ -456,6 +457,30 @@ fn after_a_boot_timeout_enable_waits_for_the_missing_encoder<S: Scalar>() {
     r.tick(Some(kernel::Request::Home));
     r.run_until(60_000, |o| o.status.state != State::Homing).expect("homing finishes");
     assert_eq!(r.k.state(), State::Operational, "{:?}", r.events);
+}
+
+/// A `<HOME>` received in Boot is queued (homing "in progress"); when the
+/// boot timeout faults instead, the queued run is dropped with the fault:
+/// homing reports Failed, no joint is homed, and after the encoder returns
+/// `<ENABLE>` leads to Unhomed, where nothing starts homing by itself.
+fn a_home_queued_in_boot_fails_at_the_boot_timeout<S: Scalar>() {
+    let mut r = Rig::<S>::new(START);
+    r.plant.encoder[2] = EncoderFault::Lost;
+    let out = r.tick(Some(kernel::Request::Home));
+    assert_eq!(out.status.state, State::Boot);
+    assert_eq!(out.status.homing, HomingStatus::InProgress, "queued: {:?}", out.events);
+    let out = r.run_until(1_000, |o| o.status.state != State::Boot).expect("boot times out");
+    assert_eq!(r.k.fault().map(|f| f.reason), Some(FaultReason::EncoderNotReady { axis: 2 }), "after {out} ticks");
+    let out = r.tick(None);
+    assert_eq!(out.status.state, State::Fault);
+    assert_eq!(out.status.homing, HomingStatus::Failed, "the queued run is dropped with the fault");
+    assert_eq!(r.k.homed(), 0);
+    r.plant.encoder[2] = EncoderFault::None;
+    let out = r.enable();
+    assert_eq!(out.status.state, State::Unhomed, "{:?}", out.events);
+    let out = r.run_until(200, |o| o.status.state != State::Unhomed);
+    assert_eq!(out, None, "no homing starts without a new <HOME>: {:?}", r.events);
+    assert_eq!(r.k.homing_status(), HomingStatus::Failed);
 }
 
 /// The estimate's plausibility bounds (`POSITION_ABS_MAX`, 32 rad): an
