@@ -1,86 +1,33 @@
-//! Whole-kernel properties: one or a few ticks of the real `Kernel::tick`
-//! from states reached through the public API (see `setup`).
+//! Sampled end-to-end tests: multi-tick runs of the real `Kernel::tick`
+//! from power-on, through the public API (see `setup`), run by the shim
+//! (`setup::end_to_end!`) and **not Kani harnesses** (tens of ticks each).
+//!
+//! Their safety assertions are carried to every tick by one-step lemmas
+//! and an induction (`state_props`): the base case is the state
+//! `Kernel::new` builds (`initial_state_satisfies_the_invariant`, and
+//! `first_tick_is_still_and_starts_at_the_readings_*` for the first
+//! tick); the step is one tick from any state the kernel's invariant
+//! admits in Unhomed, Operational, Stopping, SoftEstop or Fault, with any
+//! sensors and request, which keeps the invariant and asserts the
+//! property (`from_any_*`, `from_one_axis_*`). The induction's condition:
+//! every tick from a Boot state after the first, or from a Homing state,
+//! keeps the invariant: no lemma draws those states (`Kernel::from_spec`
+//! offers neither), so that rests on these runs and the model, sampled.
+//! What each test adds beyond the lemmas is written beside it.
 
-use crate::numeric::{any_mostly_in, any_target};
-use crate::setup::{here, operational, still, target, Checked, Sym, COUNTS, PROOF_CONFIG};
+use crate::numeric::any_mostly_in;
+use crate::setup::{end_to_end, here, operational, still, target, Checked, Sym, COUNTS, PROOF_CONFIG};
 use kernel::config::AXES;
 use kernel::homing::Phase;
-use kernel::{EncoderSample, Event, FaultReason, Fx, Reject, Request, RequestKind, Scalar, Sense, State, TickOutput};
-
-/// Sensors that may differ from the stationary arm in any way: a count may
-/// be lost, jump, or move a little; switches and hardware faults are free.
-#[cfg_attr(not(kani), kani::loops)]
-fn any_sense() -> Sense {
-    // Half of the samples are the clean stationary arm; symbolically this is
-    // still every sensor combination.
-    if kani::any() {
-        return still(0);
-    }
-    let mut s = still(kani::any());
-    for i in 0..AXES {
-        let mode: u8 = kani::any();
-        s.encoders[i] = match mode % 4 {
-            0 => EncoderSample::Lost,
-            1 => EncoderSample::Count(kani::any()),
-            2 => {
-                let d: i8 = kani::any();
-                EncoderSample::Count((i32::from(COUNTS[i]) + i32::from(d)).rem_euclid(4096) as u16)
-            }
-            _ => EncoderSample::Count(COUNTS[i]),
-        };
-    }
-    if kani::any::<u8>() == 0 {
-        s.hardware_fault = Some(crate::setup::any_hardware_fault());
-    }
-    s
-}
+use kernel::{EncoderSample, Event, FaultReason, Fx, Reject, Request, RequestKind, Scalar, State, TickOutput};
 
 fn all_zero<S: Scalar>(o: &TickOutput<S>) -> bool {
     o.act.velocity.iter().all(|v| *v == S::ZERO) && o.act.step_rate.iter().all(|r| *r == 0)
 }
 
-// The per-tick invariants (SR-1, SR-2, SR-4..SR-11, SR-13, SR-15..SR-19,
-// SR-25) are checked on every tick of every harness by the safety monitor
-// (`setup::Checked`); the harnesses below state their own properties.
-
-/// SR-2, SR-3, SR-4, SR-9, SR-11, SR-21: one tick from Operational with any
-/// target and any sensors: outputs bounded; a fault zeroes every axis.
-#[cfg_attr(not(kani), kani::loops)]
-fn operational_tick<S: Sym>() {
-    let (mut k, _) = operational::<S>();
-    let req = if kani::any() { Some(Request::Motion(any_target::<S>())) } else { None };
-    let sense = any_sense();
-    let o = k.tick(&sense, req);
-    kani::cover!(o.status.state == State::Fault, "a fault");
-    kani::cover!(o.status.state == State::Operational, "still operational");
-    // SR-10, SR-21: a pressed switch or a hardware fault in Operational faults.
-    kani::cover!(sense.limits & 0x3f != 0, "a switch pressed (SR-10 antecedent)");
-    kani::cover!(sense.hardware_fault.is_some(), "a hardware fault (SR-21 antecedent)");
-    if sense.limits & 0x3f != 0 || sense.hardware_fault.is_some() {
-        assert!(o.status.state == State::Fault);
-    }
-    // A second tick: the monitor checks that the fault stays latched with
-    // its first reason (SR-5) and the acceleration limit across the two
-    // outputs (SR-25).
-    let o2 = k.tick(&any_sense(), None);
-    kani::cover!(
-        o2.status.state == State::Operational && o.status.state == State::Operational,
-        "two operational ticks"
-    );
-}
-
-/// Footprint: 49 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; kernel, monitor and any_sense: 6 axes (7)
-fn operational_tick_is_safe_f32() {
-    operational_tick::<f32>();
-}
-/// Footprint: 49 symbolic values, 29 ticks (a target and two sensor readings (27 concrete set-up ticks, 2 symbolic)).
-#[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
-fn operational_tick_is_safe_fx() {
-    operational_tick::<Fx>();
-}
+// Every tick of these tests is checked by the safety monitor
+// (`setup::Checked`: SR-1, SR-2, SR-4..SR-11, SR-13, SR-15..SR-19, SR-25)
+// and the kernel's state invariant; each test states its own property.
 
 /// Ticks [`from_power_on`] runs after the first: one to start homing and
 /// the seven J6 needs on the stationary arm (`setup::HOMING_TICKS` / 3),
@@ -88,13 +35,19 @@ fn operational_tick_is_safe_fx() {
 /// assertion sees an axis that depends on another.
 const POWER_ON_TICKS: u32 = 10;
 
-/// Induction beside the 10 ticks, and where it stops: the one-step lemmas
-/// (`state_props`: from every admitted Unhomed, Operational, Stopping,
-/// SoftEstop and Fault state) assert the refusal of motion outside
-/// Operational (SR-15), and the invariant carries them over ticks (see
-/// `runaway`); they assert no homing order and draw no Boot or Homing
-/// state. Those rest on this run: every tick of it checked by the
-/// monitor, sampled under the shim, bounded to 10 ticks under Kani.
+/// Induction, and where it stops. The one-step lemmas assert, from every
+/// admitted Unhomed, Operational, Stopping, SoftEstop and Fault state, no
+/// output outside Operational, Stopping and Homing (SR-1), the refusal of
+/// motion outside Operational (SR-15), the refusal of `<HOMEn>` while a
+/// dependency is unhomed (SR-13), and in the tick a homing run starts,
+/// output only on an axis in a moving homing phase whose dependencies are
+/// homed (SR-13, SR-16); `first_tick_is_still_and_starts_at_the_readings_*`
+/// asserts SR-1 and SR-15 for the first tick from `Kernel::new`. With the
+/// invariant (base `initial_state_satisfies_the_invariant`, kept by every
+/// lemma) they hold on every tick from those states. What only this run
+/// checks: the ticks inside a homing run (the homing order as groups
+/// finish, the monitor's check) and Boot after its first tick: sampled,
+/// every tick checked by the monitor.
 ///
 /// SR-1, SR-13, SR-15, SR-16: from power-on, any sequence of
 /// [`POWER_ON_TICKS`] requests and sensors: nothing moves unhomed; motion is
@@ -163,24 +116,20 @@ fn from_power_on<S: Sym>() {
     kani::cover!(second_group_moved, "an axis of the second homing group moved (after J6 homed)");
 }
 
-/// Footprint: 48 symbolic values, 11 ticks (the first readings, then per tick a request and the switches).
-#[kani::proof]
-#[kani::unwind(11)] // POWER_ON_TICKS = 10 ticks; kernel, monitor and the encoder loops: 6 axes (7)
-fn nothing_moves_unless_homed_and_homing_order_holds_f32() {
-    from_power_on::<f32>();
-}
-/// Footprint: 48 symbolic values, 11 ticks (the first readings, then per tick a request and the switches).
-#[kani::proof]
-#[kani::unwind(11)] // as the f32 harness
-fn nothing_moves_unless_homed_and_homing_order_holds_fx() {
-    from_power_on::<Fx>();
-}
+// Footprint: 48 symbolic values, 11 ticks (the first readings, then per tick a request and the switches). Unwind: POWER_ON_TICKS = 10 ticks; kernel, monitor and the encoder loops: 6 axes (7).
+end_to_end!(nothing_moves_unless_homed_and_homing_order_holds_f32, from_power_on::<f32>, unwind 11, footprint 48 symbolic values, 11 ticks);
+// Footprint: 48 symbolic values, 11 ticks (the first readings, then per tick a request and the switches). Unwind: as the f32 test.
+end_to_end!(nothing_moves_unless_homed_and_homing_order_holds_fx, from_power_on::<Fx>, unwind 11, footprint 48 symbolic values, 11 ticks);
 
 /// SR-7, SR-8, SR-29: after one accepted stream sample near the set-point,
 /// silence: if a set-point still moves when the timeout expires, the ramp
 /// starts (speeds never increase nor reverse, every axis exactly zero within
 /// the ramp) and the stop latches; if every joint is already at rest at its
-/// target, it holds (no latch) and the next command is taken.
+/// target, it holds (no latch) and the next command is taken. The
+/// stopping lemmas assert each ramp tick (never faster, never reversed,
+/// all zero and SoftEstop at its last tick); this run adds what spans
+/// ticks: the timeout armed by the command and expiring on time, the
+/// choice between hold and latch, the ramp's length.
 #[cfg_attr(not(kani), kani::loops)]
 fn soft_stop<S: Sym>() {
     let (mut k, _) = operational::<S>();
@@ -238,64 +187,17 @@ fn soft_stop<S: Sym>() {
     }
 }
 
-/// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: 25 ticks; 12 ticks of silence here; 6 axes
-fn soft_stop_ramps_monotonically_to_zero_and_latches_f32() {
-    soft_stop::<f32>();
-}
-/// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence).
-#[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
-fn soft_stop_ramps_monotonically_to_zero_and_latches_fx() {
-    soft_stop::<Fx>();
-}
-
-/// SR-5, SR-6: a limit fault; enable with any sensors is refused while any
-/// cause is present, and when accepted the set-points equal the measured
-/// positions (no jump) and the timeout is disarmed.
-#[cfg_attr(not(kani), kani::loops)]
-fn enable<S: Sym>() {
-    let (mut k, auth) = operational::<S>();
-    let switch: u8 = kani::any::<u8>() % AXES as u8;
-    let o = k.tick(&still(1 << switch), None);
-    assert!(o.status.state == State::Fault);
-    let sense = any_sense();
-    let cause = sense.limits & 0x3f != 0
-        || sense.hardware_fault.is_some()
-        || sense.encoders.iter().any(|e| !matches!(e, EncoderSample::Count(c) if *c < 4096));
-    let o = k.tick(&sense, Some(Request::Enable(auth.enable())));
-    kani::cover!(o.status.state == State::Fault, "refused");
-    kani::cover!(o.status.state != State::Fault, "accepted");
-    // The monitor checks the accepted case (SR-6: set-points equal the
-    // positions, timeout disarmed, no cause in the sensors); stated here too.
-    kani::cover!(cause, "a cause present (antecedent)");
-    if cause {
-        assert!(o.status.state == State::Fault);
-    }
-    if o.status.state != State::Fault {
-        assert!(!o.status.timeout_armed);
-        for i in 0..AXES {
-            assert!(o.status.setpoint[i] == o.status.position[i]);
-        }
-    }
-}
-
-/// Footprint: 19 symbolic values, 29 ticks (the switch and one sensor reading).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: 25 ticks; any_sense, kernel, monitor: 6 axes
-fn enable_is_refused_while_a_cause_persists_and_never_jumps_f32() {
-    enable::<f32>();
-}
-/// Footprint: 19 symbolic values, 29 ticks (the switch and one sensor reading).
-#[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
-fn enable_is_refused_while_a_cause_persists_and_never_jumps_fx() {
-    enable::<Fx>();
-}
+// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence). Unwind: setup::run_homing: 25 ticks; 12 ticks of silence here; 6 axes.
+end_to_end!(soft_stop_ramps_monotonically_to_zero_and_latches_f32, soft_stop::<f32>, unwind 26, footprint 7 symbolic values, 43 ticks);
+// Footprint: 7 symbolic values, 43 ticks (a sample near the set-point; 28 set-up ticks, then the silence). Unwind: as the f32 test.
+end_to_end!(soft_stop_ramps_monotonically_to_zero_and_latches_fx, soft_stop::<Fx>, unwind 26, footprint 7 symbolic values, 43 ticks);
 
 /// SR-11: up to `encoder_invalid_limit` lost samples in a row are ridden
-/// through; one more faults every axis.
+/// through; one more faults every axis. The one-step lemmas assert the
+/// last step (an axis at the limit that reads one more invalid sample
+/// faults, from every admitted state); this run adds the count itself
+/// (each loss counted, none forgiven early) and the ride-through, which
+/// the invariant states as a bound but no lemma can read back.
 #[cfg_attr(not(kani), kani::loops)]
 fn encoder_loss<S: Sym>() {
     let (mut k, _) = operational::<S>();
@@ -313,21 +215,14 @@ fn encoder_loss<S: Sym>() {
     assert!(o.status.fault.map(|f| f.reason) == Some(kernel::FaultReason::EncoderLost { axis: axis as u8 }));
 }
 
-/// Footprint: 1 symbolic values, 30 ticks (the axis).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: 25 ticks; encoder_invalid_limit (2) ticks here; 6 axes
-fn encoder_loss_beyond_the_tolerance_faults_f32() {
-    encoder_loss::<f32>();
-}
-/// Footprint: 1 symbolic values, 30 ticks (the axis).
-#[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
-fn encoder_loss_beyond_the_tolerance_faults_fx() {
-    encoder_loss::<Fx>();
-}
+// Footprint: 1 symbolic values, 30 ticks (the axis). Unwind: setup::run_homing: 25 ticks; encoder_invalid_limit (2) ticks here; 6 axes.
+end_to_end!(encoder_loss_beyond_the_tolerance_faults_f32, encoder_loss::<f32>, unwind 26, footprint 1 symbolic values, 30 ticks);
+// Footprint: 1 symbolic values, 30 ticks (the axis). Unwind: as the f32 test.
+end_to_end!(encoder_loss_beyond_the_tolerance_faults_fx, encoder_loss::<Fx>, unwind 26, footprint 1 symbolic values, 30 ticks);
 
 /// SR-14: homing can be repeated: a second `<HOME>` from Operational runs
-/// and completes again.
+/// and completes again (a deterministic replay; a homing run is a Homing
+/// state, which no lemma draws).
 #[cfg_attr(not(kani), kani::loops)]
 fn rehome<S: Sym>() {
     let (mut k, _) = operational::<S>();
@@ -338,38 +233,30 @@ fn rehome<S: Sym>() {
     kani::cover!(true);
 }
 
-/// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing, twice: 25 ticks per entry; 6 axes
-fn homing_is_repeatable_f32() {
-    rehome::<f32>();
-}
-/// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay).
-#[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
-fn homing_is_repeatable_fx() {
-    rehome::<Fx>();
-}
+// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay). Unwind: setup::run_homing, twice: 25 ticks per entry; 6 axes.
+end_to_end!(homing_is_repeatable_f32, rehome::<f32>, unwind 26, footprint 0 symbolic values, 53 ticks);
+// Footprint: 0 symbolic values, 53 ticks (none: a deterministic replay). Unwind: as the f32 test.
+end_to_end!(homing_is_repeatable_fx, rehome::<Fx>, unwind 26, footprint 0 symbolic values, 53 ticks);
 
 /// Ticks [`runaway`] drives one encoder: enough for the observer's estimate
 /// to pass the runaway threshold at the largest plausible step per tick
 /// (measured: J1 crosses 3.75 rad/s in about 15 ticks at 55 counts/tick).
 const RUNAWAY_TICKS: u32 = 30;
 
-/// Induction beside the 30 ticks. The assertion ("a tick whose estimate
-/// is above the runaway threshold ends in Fault") is the SR-9 clause of
-/// the one-step lemmas `from_any_operational_state_*` and
-/// `from_one_axis_operational_state_*` (`state_props`): it holds for one
-/// tick from every state the kernel's invariant admits, with any sensors
-/// and request. The invariant holds initially
-/// (`initial_state_satisfies_the_invariant`) and after every such tick
-/// (each lemma asserts it again); the ticks from Boot and Homing, which
-/// no lemma draws, assert it on every replayed tick (`setup::Checked`,
-/// sampled). So the assertion holds on every tick of every run of the
-/// real configuration (the lemmas use `PAROL6`), not only the 30 here. What this run adds is reachability: the covers (the
-/// threshold is reached under a plausible constant step, and the fault
-/// is a runaway), for which Kani needs one path; its symbolic step makes
-/// Kani check the assertion on all of them as well.
+/// Induction: the assertion ("a tick whose estimate is above the
+/// runaway threshold ends in Fault") is the SR-9 clause of the one-step
+/// lemmas `from_any_*_state_*` and `from_one_axis_*_state_*`
+/// (`state_props`), which hold for one tick from every state the kernel's
+/// invariant admits in the modes they draw, with any sensors and request,
+/// and keep the invariant; the base case is
+/// `initial_state_satisfies_the_invariant`. So, under the condition stated
+/// in the module documentation (the Boot and Homing ticks keep the
+/// invariant, sampled), the assertion holds on every tick of every run of
+/// the real configuration (the lemmas use `PAROL6`). The operational
+/// lemmas also cover a runaway fault in one tick, from an admitted state.
+/// What this run adds is reachability from power-on: the threshold is
+/// reached under a plausible constant step from rest, and the fault is a
+/// runaway (its covers).
 ///
 /// SR-9: one joint's encoder advances by a constant step per tick, any step
 /// up to the plausibility window (so the estimate follows it rather than
@@ -407,15 +294,7 @@ fn runaway<S: Sym>() {
     kani::cover!(fired, "a runaway fault");
 }
 
-/// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign).
-#[kani::proof]
-#[kani::unwind(31)] // RUNAWAY_TICKS = 30 (setup::run_homing: 21); 6 axes
-fn runaway_faults_when_the_estimate_exceeds_the_threshold_f32() {
-    runaway::<f32>();
-}
-/// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign).
-#[kani::proof]
-#[kani::unwind(31)] // as the f32 harness
-fn runaway_faults_when_the_estimate_exceeds_the_threshold_fx() {
-    runaway::<Fx>();
-}
+// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign). Unwind: RUNAWAY_TICKS = 30 (setup::run_homing: 21); 6 axes.
+end_to_end!(runaway_faults_when_the_estimate_exceeds_the_threshold_f32, runaway::<f32>, unwind 31, footprint 3 symbolic values, 57 ticks);
+// Footprint: 3 symbolic values, 57 ticks (the axis, the step and its sign). Unwind: as the f32 test.
+end_to_end!(runaway_faults_when_the_estimate_exceeds_the_threshold_fx, runaway::<Fx>, unwind 31, footprint 3 symbolic values, 57 ticks);

@@ -1,10 +1,18 @@
-//! The kernel's discrete motion rules, from states reached through the public API
-//! (`setup`): only `<ENABLE>` clears a latch (SR-5), a lost link stops a
-//! moving arm at once (SR-31), `<HOME>` while moving stops first and then
-//! homes (SR-14). Every tick is also checked by the safety monitor.
+//! Sampled end-to-end tests of the kernel's discrete motion rules, from
+//! states reached through the public API (`setup`; run by the shim,
+//! `setup::end_to_end!`, **not Kani harnesses**): a lost link stops a
+//! moving arm at once and the stop latches (SR-31), `<HOME>` while moving
+//! stops first and then homes (SR-14). Every tick is also checked by the
+//! safety monitor. The one-tick clauses (a moving arm that loses the link
+//! leaves Operational in that tick; only `<ENABLE>` leaves a latch, SR-5)
+//! are the one-step lemmas' (`state_props`, with the induction argued in
+//! `kernel_props`); these runs add the ramp's end in a latch after a lost
+//! link, and the homing run a `<HOME>` queued behind a stop starts, which
+//! no lemma draws (a Stopping state with a queued home is not offered by
+//! `Kernel::from_spec`).
 
 use crate::numeric::any_target;
-use crate::setup::{here, operational, still, target, Checked, Sym, PROOF_CONFIG};
+use crate::setup::{end_to_end, here, operational, still, target, Checked, Sym, PROOF_CONFIG};
 use kernel::config::AXES;
 use kernel::{Authority, Event, Fx, Reject, Request, State, StopCause};
 
@@ -25,54 +33,6 @@ fn moving<S: Sym>() -> (Checked<S>, Authority) {
     let o = k.tick(&still(0), Some(Request::Motion(t)));
     assert!(o.events.is_empty());
     (k, a)
-}
-
-/// SR-5: in SoftEstop or Fault, no request but an accepted `<ENABLE>` leaves
-/// the latch: `<HOME>`, `<HOMEn>` for any n, and any motion target are
-/// refused, whatever the sensors say (a new cause may turn SoftEstop into
-/// Fault, never into anything else).
-#[cfg_attr(not(kani), kani::loops)]
-fn only_enable_clears<S: Sym>() {
-    let (mut k, _) = moving::<S>();
-    let to_fault: bool = kani::any();
-    if to_fault {
-        let switch: u8 = kani::any::<u8>() % AXES as u8;
-        k.tick(&still(1 << switch), None);
-        assert!(k.state() == State::Fault);
-    } else {
-        // Timeout 3 ticks + ramp 4 ticks: latched within 8 (loop bound).
-        for _ in 0..8 {
-            k.tick(&still(0), None);
-        }
-        assert!(k.state() == State::SoftEstop);
-    }
-    let before = k.state();
-    let req = match kani::any::<u8>() % 3 {
-        0 => Request::Home,
-        1 => Request::HomeJoint(kani::any::<u8>() % 8),
-        _ => Request::Motion(any_target::<S>()),
-    };
-    let limits: u8 = if kani::any() { 0 } else { kani::any() };
-    let o = k.tick(&still(limits), Some(req));
-    kani::cover!(before == State::SoftEstop, "from SoftEstop");
-    kani::cover!(before == State::Fault, "from Fault");
-    kani::cover!(o.status.state == State::Fault && before == State::SoftEstop, "a new cause in SoftEstop");
-    assert!(o.status.state == before || o.status.state == State::Fault);
-    assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { .. })));
-    assert!(o.act.velocity.iter().all(|v| *v == S::ZERO));
-}
-
-/// Footprint: 17 symbolic values, 38 ticks (the latch's cause and switch, the request (up to a target), the switches).
-#[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: HOMING_TICKS = 25 ticks; 8 ticks here; 6 axes
-fn only_enable_clears_a_latch_f32() {
-    only_enable_clears::<f32>();
-}
-/// Footprint: 17 symbolic values, 38 ticks (the latch's cause and switch, the request (up to a target), the switches).
-#[kani::proof]
-#[kani::unwind(26)] // as above
-fn only_enable_clears_a_latch_fx() {
-    only_enable_clears::<Fx>();
 }
 
 /// SR-31: the host link lost while the arm moves starts the soft stop in
@@ -101,18 +61,10 @@ fn link_loss<S: Sym>() {
     assert!(k.state() == State::SoftEstop || k.state() == State::Fault);
 }
 
-/// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)).
-#[kani::proof]
-#[kani::unwind(26)] // as above
-fn link_loss_while_moving_soft_stops_at_once_f32() {
-    link_loss::<f32>();
-}
-/// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)).
-#[kani::proof]
-#[kani::unwind(26)] // as above
-fn link_loss_while_moving_soft_stops_at_once_fx() {
-    link_loss::<Fx>();
-}
+// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)). Unwind: setup::run_homing: HOMING_TICKS = 25 ticks; 6 ticks of ramp here; 6 axes.
+end_to_end!(link_loss_while_moving_soft_stops_at_once_f32, link_loss::<f32>, unwind 26, footprint 14 symbolic values, 37 ticks);
+// Footprint: 14 symbolic values, 37 ticks (the extra tick, the request (up to a target)). Unwind: as the f32 test.
+end_to_end!(link_loss_while_moving_soft_stops_at_once_fx, link_loss::<Fx>, unwind 26, footprint 14 symbolic values, 37 ticks);
 
 /// SR-14: `<HOME>` while the arm moves is not a step into homing: the arm
 /// stops first (Stopping, `HOMING_QUEUED stopping first`), then homing
@@ -136,15 +88,7 @@ fn home_while_moving<S: Sym>() {
     assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { reason: Reject::Homing, .. })));
 }
 
-/// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay).
-#[kani::proof]
-#[kani::unwind(26)] // as above
-fn home_while_moving_stops_first_f32() {
-    home_while_moving::<f32>();
-}
-/// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay).
-#[kani::proof]
-#[kani::unwind(26)] // as above
-fn home_while_moving_stops_first_fx() {
-    home_while_moving::<Fx>();
-}
+// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay). Unwind: setup::run_homing: 25 ticks; 6 ticks of ramp here; 6 axes.
+end_to_end!(home_while_moving_stops_first_f32, home_while_moving::<f32>, unwind 26, footprint 0 symbolic values, 37 ticks);
+// Footprint: 0 symbolic values, 37 ticks (none: a deterministic replay). Unwind: as the f32 test.
+end_to_end!(home_while_moving_stops_first_fx, home_while_moving::<Fx>, unwind 26, footprint 0 symbolic values, 37 ticks);

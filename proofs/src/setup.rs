@@ -271,6 +271,34 @@ pub fn target<S: Scalar>(p: [S; AXES]) -> MotionTarget<S> {
     MotionTarget { position: p, velocity: [S::ZERO; AXES], kind: MotionKind::Stream }
 }
 
+/// A sampled end-to-end test: a multi-tick run from power-on, run by the
+/// shim like a harness (its covers required, its loops bounded by the
+/// given unwind, its cases held to the given footprint, a line in the
+/// shim's report) but **not a Kani harness**: its ticks are too many for
+/// Kani to finish, and its safety assertions are the one-step lemmas'
+/// (`state_props`), which carry them by induction. What each adds is
+/// written beside it (reachability of a state from power-on, the ticks of
+/// Boot and Homing, which no lemma draws, or a timing over several ticks).
+///
+/// `end_to_end!(name, body, unwind N, footprint V symbolic values, T ticks)`,
+/// with the unwind's reason in a comment on its line.
+#[cfg(all(test, not(kani)))]
+macro_rules! end_to_end {
+    ($name:ident, $body:expr, unwind $u:literal, footprint $v:literal symbolic values, $t:literal ticks) => {
+        #[test]
+        fn $name() {
+            kani::runner::run_harness(
+                concat!(module_path!(), "::", stringify!($name)),
+                $body,
+                Some($u),
+                Some(kani::runner::Footprint { symbolic_values: $v, ticks: $t }),
+            );
+        }
+    };
+}
+#[cfg(all(test, not(kani)))]
+pub(crate) use end_to_end;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -122,7 +122,8 @@ fn a_cover_never_satisfied_fails_the_harness_even_when_its_line_never_runs() {
 /// under the shim with its declared `#[kani::unwind]` (a harness that
 /// exceeded it would fail there). This checks the declarations themselves:
 /// every harness that runs a kernel tick declares at least `KERNEL_UNWIND`,
-/// and every `#[kani::unwind]` has a justification comment.
+/// and every `#[kani::unwind]` and every end-to-end test's unwind has a
+/// justification comment, in every file of `proofs/src`.
 #[test]
 fn every_unwind_is_justified() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
@@ -136,15 +137,26 @@ fn every_unwind_is_justified() {
     for path in &files {
         let f = path.file_name().and_then(|n| n.to_str()).unwrap_or("?");
         let text = std::fs::read_to_string(path).expect("harness source");
-        harness_files += usize::from(text.contains("#[kani::proof]"));
-        for (n, line) in text.lines().enumerate() {
+        harness_files += usize::from(text.contains("#[kani::proof]") || text.contains("\nend_to_end!("));
+        let lines: Vec<&str> = text.lines().collect();
+        for (n, line) in lines.iter().enumerate() {
             if line.trim_start().starts_with("#[kani::unwind(") {
                 assert!(line.contains("//"), "{f}:{}: #[kani::unwind] without a justification comment", n + 1);
             }
+            // A sampled end-to-end test gives its unwind as an argument,
+            // justified on the comment line above it.
+            if line.starts_with("end_to_end!(") {
+                let above = n.checked_sub(1).and_then(|m| lines.get(m)).copied().unwrap_or("");
+                assert!(
+                    above.trim_start().starts_with("//") && above.contains("Unwind:"),
+                    "{f}:{}: end_to_end! without an `Unwind:` justification on the line above",
+                    n + 1
+                );
+            }
         }
     }
-    // Every file with harnesses was read (kernel_props, motion_props,
-    // numeric, state_props, wire).
+    // Every file with harnesses or end-to-end tests was read (kernel_props,
+    // motion_props, numeric, state_props, wire).
     assert!(harness_files >= 5, "only {harness_files} harness files in {}", dir.display());
 }
 

@@ -34,8 +34,8 @@ use crate::numeric::any_target;
 use crate::setup::{kernel_loops, Sym};
 use kernel::config::{ms_to_ticks, AXES, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
 use kernel::{
-    Authority, AxisSpec, EncoderSample, Event, FaultReason, Kernel, Request, RequestKind, Scalar, Sense, SpecMode,
-    State, StateSpec,
+    Authority, AxisSpec, EncoderSample, Event, FaultReason, Kernel, Reject, Request, RequestKind, Scalar, Sense,
+    SpecMode, State, StateSpec,
 };
 
 /// Ticks of the soft-stop ramp (`Params::new`).
@@ -326,6 +326,21 @@ struct Reached {
     ramp_end: bool,
     /// A motion request outside Operational (SR-15's antecedent).
     motion_outside: bool,
+    /// A runaway fault latched in this tick (SR-9).
+    runaway_fault: bool,
+    /// An enable refused while a cause was present (SR-6's antecedent).
+    enable_refused_by_cause: bool,
+    /// A `<HOME>` or `<HOMEn>` refused by a latch (SR-5).
+    home_refused_latched: bool,
+    /// A `<HOMEn>` refused while a joint it depends on is unhomed (SR-13).
+    dependency_refused: bool,
+    /// A homing run started from Unhomed (SR-13, SR-16's antecedent).
+    homing_started: bool,
+    /// An axis at its invalid-sample limit read an invalid sample
+    /// (SR-11's antecedent).
+    encoder_loss_at_limit: bool,
+    /// The link lost while moving in Operational (SR-31's antecedent).
+    link_lost_moving: bool,
 }
 
 /// One tick from any admitted state of the kind `draw`; asserts what every
@@ -336,8 +351,13 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     let before = k.state();
     let homed = k.homed();
     let prev = k.last_output();
+    let moving = k.moving();
     let sense = any_sense(&spec, scope);
     let req = any_request::<S>(&auth, &spec, scope);
+    let home_joint = match req {
+        Some(Request::HomeJoint(j)) => Some(j),
+        _ => None,
+    };
     let enable = matches!(req, Some(Request::Enable(_)));
     let home = matches!(req, Some(Request::Home | Request::HomeJoint(_)));
     let motion = matches!(req, Some(Request::Motion(_)));
@@ -389,15 +409,95 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     // SR-5: only an accepted `<ENABLE>` leaves a latch (a new cause may turn
     // SoftEstop into Fault).
     let latched = matches!(before, State::SoftEstop | State::Fault);
+    let after_latched = matches!(after, State::SoftEstop | State::Fault);
+    let rejected = |what: fn(&Reject) -> bool| {
+        o.events.iter().any(|e| matches!(e, Event::Rejected { reason, .. } if what(reason)))
+    };
     let mut reached = Reached {
         latch_kept: latched && !enable,
-        latch_cleared: latched && enable && !matches!(after, State::SoftEstop | State::Fault),
+        latch_cleared: latched && enable && !after_latched,
         output_changed: false,
         ramp_end: false,
         motion_outside: motion && outside,
+        runaway_fault: matches!(o.status.fault.map(|f| f.reason), Some(FaultReason::Runaway { .. })),
+        enable_refused_by_cause: false,
+        home_refused_latched: false,
+        dependency_refused: false,
+        homing_started: before == State::Unhomed && after == State::Homing,
+        encoder_loss_at_limit: false,
+        link_lost_moving: false,
     };
     if latched && !enable {
         assert!(after == before || after == State::Fault);
+    }
+    // SR-5: `<HOME>` and `<HOMEn>` are refused while latched (`<HOME>` as
+    // latched; `<HOMEn>` for a joint whose dependencies are unhomed is
+    // refused for that first, see SR-13 below).
+    if latched && home {
+        reached.home_refused_latched = true;
+        assert!(rejected(|_| true));
+        if home_joint.is_none() {
+            assert!(rejected(|r| *r == Reject::Latched));
+        }
+    }
+    // SR-6: an enable is refused while a cause the kernel sees at rest is
+    // present (a hardware fault, an invalid encoder sample, a homed joint's
+    // switch; the estimate's causes are not restated here); an accepted one
+    // leaves every set-point at its measured position, the timeout disarmed.
+    if latched && enable {
+        let invalid = sense.encoders.iter().any(|e| !matches!(e, EncoderSample::Count(c) if *c < 4096));
+        let cause = sense.hardware_fault.is_some() || invalid || sense.limits & homed & 0x3f != 0;
+        reached.enable_refused_by_cause = cause;
+        if cause {
+            assert!(after_latched);
+        } else if !after_latched {
+            assert!(!o.status.timeout_armed);
+            for i in 0..AXES {
+                assert!(o.status.setpoint[i] == o.status.position[i]);
+            }
+        }
+    }
+    // SR-1: no output in Boot, Unhomed or a latch (every state but the
+    // three that move).
+    if !matches!(after, State::Operational | State::Stopping | State::Homing) {
+        assert!(out.iter().all(|v| *v == S::ZERO) && o.act.step_rate.iter().all(|r| *r == 0));
+    }
+    // SR-13: `<HOMEn>` is refused while a joint it depends on is unhomed.
+    if let Some(j) = home_joint {
+        let needs = crate::setup::SEED_DEPENDENCIES.get(usize::from(j)).copied().unwrap_or(0);
+        if usize::from(j) < AXES && homed & needs != needs {
+            reached.dependency_refused = true;
+            assert!(rejected(|r| matches!(r, Reject::DependencyNotHomed { .. })));
+        }
+    }
+    // SR-13, SR-16: in the tick a homing run starts, only an axis in a
+    // moving homing phase moves, and only one whose dependencies (the
+    // monitor's own copy of the homing order) are homed.
+    if after == State::Homing {
+        let phases = k.homing_phases();
+        let homed_now = k.homed();
+        for i in 0..AXES {
+            if out[i] != S::ZERO {
+                let needs = crate::setup::SEED_DEPENDENCIES[i];
+                assert!(phases[i].is_moving() && homed_now & needs == needs);
+            }
+        }
+    }
+    // SR-11: an axis at its limit of consecutive invalid samples that
+    // reads one more faults (outside Fault; the invariant bounds the count
+    // by the limit, so this is the sample after the limit).
+    for i in 0..AXES {
+        let bad = !matches!(sense.encoders[i], EncoderSample::Count(c) if c < 4096);
+        if scope.symbolic(i) && before != State::Fault && bad && spec.axes[i].invalid == PAROL6.encoder_invalid_limit {
+            reached.encoder_loss_at_limit = true;
+            assert!(after == State::Fault);
+        }
+    }
+    // SR-31: the link lost while the arm moves in Operational stops it in
+    // the same tick (or a fault does).
+    if before == State::Operational && moving && sense.link_lost {
+        reached.link_lost_moving = true;
+        assert!(matches!(after, State::Stopping | State::Fault));
     }
     // (A latch only in the latched draw.)
     assert!(!latched || draw == Draw::Latched);
@@ -447,6 +547,9 @@ fn initial_state_satisfies_the_invariant() {
 fn from_any_operational_state_f32() {
     let r = step::<f32>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
+    kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
+    kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
 #[kani::proof]
@@ -454,6 +557,9 @@ fn from_any_operational_state_f32() {
 fn from_any_operational_state_fx() {
     let r = step::<kernel::Fx>(Draw::Operational, Scope::Whole);
     kani::cover!(r.output_changed, "an operational tick that changes an output");
+    kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
+    kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
 #[kani::proof]
@@ -479,6 +585,11 @@ fn from_any_latched_or_unhomed_state_f32() {
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
+    kani::cover!(r.enable_refused_by_cause, "an enable with a cause present (SR-6 antecedent)");
+    kani::cover!(r.home_refused_latched, "a home request in a latch (SR-5 antecedent)");
+    kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
+    kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 113 symbolic values, 1 tick (the state (80), sensors (20), request (13)).
 #[kani::proof]
@@ -488,6 +599,11 @@ fn from_any_latched_or_unhomed_state_fx() {
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
+    kani::cover!(r.enable_refused_by_cause, "an enable with a cause present (SR-6 antecedent)");
+    kani::cover!(r.home_refused_latched, "a home request in a latch (SR-5 antecedent)");
+    kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
+    kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 
 // The same steps with one axis symbolic (see `Scope`): a symbolic axis
@@ -501,6 +617,9 @@ fn from_any_latched_or_unhomed_state_fx() {
 fn from_one_axis_operational_state_f32() {
     let r = step::<f32>(Draw::Operational, one_axis());
     kani::cover!(r.output_changed, "an operational tick that changes an output");
+    kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
+    kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 37 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -508,6 +627,9 @@ fn from_one_axis_operational_state_f32() {
 fn from_one_axis_operational_state_fx() {
     let r = step::<kernel::Fx>(Draw::Operational, one_axis());
     kani::cover!(r.output_changed, "an operational tick that changes an output");
+    kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
+    kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (the operational draw, the
 /// axis's ramp start speed and the track flag).
@@ -536,6 +658,11 @@ fn from_one_axis_latched_or_unhomed_state_f32() {
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
+    kani::cover!(r.enable_refused_by_cause, "an enable with a cause present (SR-6 antecedent)");
+    kani::cover!(r.home_refused_latched, "a home request in a latch (SR-5 antecedent)");
+    kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
+    kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -545,4 +672,97 @@ fn from_one_axis_latched_or_unhomed_state_fx() {
     kani::cover!(r.latch_kept, "a latch and no enable (SR-5 antecedent)");
     kani::cover!(r.latch_cleared, "an enable clears a latch");
     kani::cover!(r.motion_outside, "motion outside Operational (SR-15 antecedent)");
+    kani::cover!(r.enable_refused_by_cause, "an enable with a cause present (SR-6 antecedent)");
+    kani::cover!(r.home_refused_latched, "a home request in a latch (SR-5 antecedent)");
+    kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
+    kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
+    kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+}
+
+/// The first tick from power-on (the induction's base state, built by
+/// `Kernel::new` with the real configuration), with any first readings
+/// (each encoder any count, in range or not, or a lost sample), any
+/// switches, any hardware fault and any request (a motion request with a
+/// fixed target: in Boot it is refused by its mode before any value of it
+/// is read).
+#[cfg_attr(not(kani), kani::loops)]
+fn first_tick<S: Sym>() {
+    kernel_loops();
+    let (mut k, auth) = Kernel::<S>::new(&PAROL6_VALIDATED);
+    let mut encoders = [EncoderSample::Lost; AXES];
+    for e in encoders.iter_mut() {
+        let c: u16 = kani::any();
+        // For sampling, mostly a count in range (a hint, no symbolic
+        // value); symbolically any count or a loss.
+        #[cfg(not(kani))]
+        let c = if kani::runner::hint::<u8>().is_multiple_of(8) { c } else { c % 4096 };
+        if !kani::any::<u8>().is_multiple_of(8) {
+            *e = EncoderSample::Count(c);
+        }
+    }
+    let hardware_fault =
+        if kani::any::<u8>().is_multiple_of(8) { Some(crate::setup::any_hardware_fault()) } else { None };
+    let sense = Sense { encoders, limits: kani::any(), hardware_fault, link_lost: false };
+    let req = match kani::any::<u8>() % 5 {
+        0 => None,
+        1 => Some(Request::Home),
+        2 => Some(Request::HomeJoint(kani::any::<u8>() % 8)),
+        3 => Some(Request::Enable(auth.enable())),
+        _ => Some(Request::Motion(crate::setup::target([S::ZERO; AXES]))),
+    };
+    let motion = matches!(req, Some(Request::Motion(_)));
+    crate::setup::count_tick();
+    let o = k.tick(&sense, req);
+    let after = o.status.state;
+    let out = o.act.velocity;
+    // SR-15: motion is refused in Boot.
+    kani::cover!(motion, "motion in Boot (SR-15 antecedent)");
+    if motion {
+        assert!(o.events.iter().any(|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. })));
+    }
+    // SR-1: no output unless a homing run started (a `<HOME>` queued in
+    // Boot starts when Boot ends), and then only as SR-13 and SR-16 allow.
+    kani::cover!(after == State::Boot, "Boot goes on (a sample missing)");
+    kani::cover!(after == State::Unhomed, "booted on the first tick");
+    kani::cover!(after == State::Homing, "a home queued in Boot starts");
+    if after == State::Homing {
+        let phases = k.homing_phases();
+        for i in 0..AXES {
+            if out[i] != S::ZERO {
+                let needs = crate::setup::SEED_DEPENDENCIES[i];
+                assert!(phases[i].is_moving() && k.homed() & needs == needs);
+            }
+        }
+    } else {
+        assert!(out.iter().all(|v| *v == S::ZERO) && o.act.step_rate.iter().all(|r| *r == 0));
+    }
+    // SR-1: when Boot ends, each observer is at rest at its first reading.
+    if after == State::Unhomed {
+        for i in 0..AXES {
+            let EncoderSample::Count(c) = sense.encoders[i] else { unreachable!("Boot ends with every count read") };
+            let j = &PAROL6.joints[i];
+            assert!(!j.encoder_reversed, "the expected reading below is a forward encoder's");
+            let expect = S::from_counts(i32::from(c), S::wide_from_f64(j.rad_per_count()));
+            assert!(o.status.position[i] == expect && o.status.velocity[i] == S::ZERO);
+        }
+    }
+    assert!(k.invariant());
+}
+
+/// The base case in Boot: one tick from `Kernel::new`'s state. States in
+/// Boot after that (a sample still missing) and in Homing are not drawn;
+/// the sampled end-to-end test `kernel_props::nothing_moves_unless_homed_and_homing_order_holds_*` and the model
+/// cover those ticks.
+/// Footprint: 19 symbolic values, 1 tick (six readings and whether each
+/// is lost (12), switches, the hardware fault (4), the request (2)).
+#[kani::proof]
+#[kani::unwind(7)] // first_tick, the kernel and the invariant: six axes
+fn first_tick_is_still_and_starts_at_the_readings_f32() {
+    first_tick::<f32>();
+}
+/// Footprint: 19 symbolic values, 1 tick (as the f32 harness).
+#[kani::proof]
+#[kani::unwind(7)] // as the f32 harness
+fn first_tick_is_still_and_starts_at_the_readings_fx() {
+    first_tick::<kernel::Fx>();
 }

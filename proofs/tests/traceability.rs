@@ -90,7 +90,7 @@ fn the_checker_rejects_a_missing_harness() {
     // The checker itself must be able to fail: a made-up harness name is not
     // among the harnesses found.
     assert!(!harnesses().contains("this_harness_does_not_exist"));
-    assert!(harnesses().contains("operational_tick_is_safe_fx"));
+    assert!(harnesses().contains("from_one_axis_operational_state_fx"));
 }
 
 // The safety-function layer (`docs/safety/`): hazards scored to a PL_r,
