@@ -251,10 +251,10 @@ fn setpoint_guarantee<S: Sym>() {
     let lim = S::from_f32(16.0);
     let (lo, hi) = (any_in(lim.neg(), lim), any_in(lim.neg(), lim));
     kani::assume(lo <= hi);
+    kani::cover!(lo == hi, "at rest on its interval");
     let (sp, to, x) = (any_in(lo, hi), any_in(lo, hi), any_in(lim.neg(), lim));
     let vel = any_in(k.vmax.neg(), k.vmax);
     let speed = any_in(S::ZERO, k.vmax);
-    kani::cover!(lo == hi, "at rest on its interval");
     let mut it = Interpolator::from_parts_within(sp, to, vel, speed, lo, hi, &k);
     let mut moved = it;
     let (sp2, _) = moved.advance(&k);

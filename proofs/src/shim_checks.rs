@@ -240,3 +240,33 @@ fn every_cover_is_in_an_instrumented_function() {
     assert!(covers >= 20, "only {covers} covers found in {}", dir.display());
     assert!(bare.is_empty(), "covers in functions the shim does not instrument: {bare:?}");
 }
+
+/// Every `kani::assume` in the harness sources is paired with a
+/// `kani::cover!` within three lines of it (before or after), in an
+/// instrumented function (checked above), so that an assumption no draw
+/// satisfies fails its harness instead of making it vacuous.
+#[test]
+fn every_assume_is_paired_with_a_cover() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let (mut assumes, mut unpaired) = (0, Vec::new());
+    for entry in std::fs::read_dir(&dir).expect("harness sources") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|x| x != "rs") || path.ends_with("shim_checks.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("harness source");
+        let lines: Vec<&str> = text.lines().collect();
+        for (n, line) in lines.iter().enumerate() {
+            let t = line.trim_start();
+            if t.starts_with("kani::assume(") {
+                assumes += 1;
+                let near = &lines[n.saturating_sub(3)..(n + 4).min(lines.len())];
+                if !near.iter().any(|l| l.trim_start().starts_with("kani::cover!(")) {
+                    unpaired.push(format!("{}:{}", path.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(assumes >= 5, "only {assumes} assumptions found in {}", dir.display());
+    assert!(unpaired.is_empty(), "kani::assume without a kani::cover! within three lines: {unpaired:?}");
+}
