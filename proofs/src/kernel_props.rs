@@ -126,10 +126,12 @@ end_to_end!(nothing_moves_unless_homed_and_homing_order_holds_fx, from_power_on:
 /// starts (speeds never increase nor reverse, every axis exactly zero within
 /// the ramp) and the stop latches; if every joint is already at rest at its
 /// target, it holds (no latch) and the next command is taken. The
-/// stopping lemmas assert each ramp tick (never faster, never reversed,
-/// all zero and SoftEstop at its last tick); this run adds what spans
-/// ticks: the timeout armed by the command and expiring on time, the
-/// choice between hold and latch, the ramp's length.
+/// one-step lemmas assert the tick the timeout expires in (a stop with a
+/// set-point travelling, a hold with every set-point at rest, nothing
+/// before) and each ramp tick (never faster, never reversed, all zero and
+/// SoftEstop at its last tick); this run adds what spans ticks: a
+/// timeout armed by a real command reaching its expiry, the ramp's length,
+/// the next command taken after a hold.
 #[cfg_attr(not(kani), kani::loops)]
 fn soft_stop<S: Sym>() {
     let (mut k, _) = operational::<S>();

@@ -35,8 +35,14 @@ use crate::setup::{kernel_loops, Sym};
 use kernel::config::{ms_to_ticks, AXES, PAROL6, PAROL6_VALIDATED, POSITION_ABS_MAX};
 use kernel::{
     Authority, AxisSpec, EncoderSample, Event, FaultReason, Kernel, Reject, Request, RequestKind, Scalar, Sense,
-    SpecMode, State, StateSpec,
+    SpecMode, State, StateSpec, StopCause,
 };
+
+/// Ticks of the command timeout: an armed timeout whose count of ticks
+/// since the last command passes it expires.
+fn timeout_ticks() -> u32 {
+    ms_to_ticks(PAROL6.command_timeout_ms, PAROL6.tick_hz)
+}
 
 /// Ticks of the soft-stop ramp (`Params::new`).
 fn stop_ticks() -> u32 {
@@ -185,6 +191,10 @@ fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSp
     let typ: bool = kani::runner::hint();
     #[cfg(kani)]
     let typ = false;
+    // A sampling hint: every drawn set-point at rest on its target (see
+    // below).
+    #[cfg(not(kani))]
+    let rest_all: bool = kani::runner::hint::<u8>().is_multiple_of(4);
     let mut axes = [AxisSpec {
         count: 0,
         zero: S::ZERO,
@@ -224,6 +234,14 @@ fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSp
         a.target = any_between(big.neg(), big);
         a.sp_velocity = any_between(vm.neg(), vm);
         a.speed = any_between(S::ZERO, big);
+        // Sampling: now and then a set-point at rest on its target (a hint:
+        // symbolically the set-point, target and velocity stay any values),
+        // so that states with every set-point at rest are drawn.
+        #[cfg(not(kani))]
+        if rest_all || kani::runner::hint::<u8>().is_multiple_of(4) {
+            a.target = a.setpoint;
+            a.sp_velocity = S::ZERO;
+        }
         a.path = any_between(big.neg(), big);
         a.fe_count = kani::any::<u32>() % (ms_to_ticks(cfg.following_error_ms, cfg.tick_hz) + 1);
         a.invalid = kani::any::<u32>() % (cfg.encoder_invalid_limit + 1);
@@ -244,7 +262,14 @@ fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSp
         homed: if draw == Draw::Latched { kani::any::<u8>() & 0x3f } else { 0x3f },
         axes,
         armed: kani::any(),
-        since_cmd: kani::any::<u32>() % 1000,
+        since_cmd: {
+            let c = kani::any::<u32>() % 1000;
+            // For sampling, often the tick before the timeout or its
+            // expiry (a hint, no symbolic value).
+            #[cfg(not(kani))]
+            let c = if kani::runner::hint() { timeout_ticks() - 1 + c % 2 } else { c };
+            c
+        },
         since_target: if kani::any() { Some(kani::any::<u32>() % (seg.1 + 1)) } else { None },
         intervals,
     };
@@ -343,6 +368,12 @@ struct Reached {
     encoder_loss_at_limit: bool,
     /// The link lost while moving in Operational (SR-31's antecedent).
     link_lost_moving: bool,
+    /// The command timeout expired with every set-point at rest on its
+    /// target (SR-29's antecedent).
+    timeout_hold: bool,
+    /// The command timeout expired with a set-point travelling (SR-7's
+    /// antecedent).
+    timeout_stop: bool,
 }
 
 /// One tick from any admitted state of the kind `draw`; asserts what every
@@ -354,6 +385,7 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     let homed = k.homed();
     let prev = k.last_output();
     let moving = k.moving();
+    let at_rest = k.setpoints_at_rest();
     let sense = any_sense(&spec, scope);
     let req = any_request::<S>(&auth, &spec, scope);
     let home_joint = match req {
@@ -363,6 +395,7 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     let enable = matches!(req, Some(Request::Enable(_)));
     let home = matches!(req, Some(Request::Home | Request::HomeJoint(_)));
     let motion = matches!(req, Some(Request::Motion(_)));
+    let req_none = req.is_none();
     crate::setup::count_tick();
     let o = k.tick(&sense, req);
     let after = o.status.state;
@@ -428,6 +461,8 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
         homing_started: before == State::Unhomed && after == State::Homing,
         encoder_loss_at_limit: false,
         link_lost_moving: false,
+        timeout_hold: false,
+        timeout_stop: false,
     };
     if latched && !enable {
         assert!(after == before || after == State::Fault);
@@ -495,6 +530,40 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
             assert!(after == State::Fault);
         }
     }
+    // SR-8: the timeout is armed only by an accepted motion command, and
+    // a homing run starts with it disarmed.
+    if !spec.armed && !motion {
+        assert!(!o.status.timeout_armed);
+    }
+    if after == State::Homing {
+        assert!(!o.status.timeout_armed);
+    }
+    // SR-7, SR-29: in Operational with no request and the link up, the
+    // command timeout decides: before it expires nothing stops; when it
+    // expires (armed, and the ticks since the last command pass it) a
+    // set-point still travelling starts the soft stop, and every set-point
+    // at rest on its target holds (`Holding`, the timeout disarmed).
+    if before == State::Operational && req_none && !sense.link_lost {
+        let expires = spec.armed && spec.since_cmd >= timeout_ticks();
+        if !expires {
+            assert!(after != State::Stopping);
+        } else if at_rest {
+            reached.timeout_hold = after == State::Operational;
+            assert!(after != State::Stopping);
+            if after == State::Operational {
+                assert!(o.events.iter().any(|e| *e == Event::Holding) && !o.status.timeout_armed);
+            }
+        } else {
+            reached.timeout_stop = after == State::Stopping;
+            assert!(matches!(after, State::Stopping | State::Fault));
+            if after == State::Stopping {
+                assert!(o
+                    .events
+                    .iter()
+                    .any(|e| matches!(e, Event::SoftEstop { cause: StopCause::CommandTimeout { .. } })));
+            }
+        }
+    }
     // SR-31: the link lost while the arm moves in Operational stops it in
     // the same tick (or a fault does).
     if before == State::Operational && moving && sense.link_lost {
@@ -551,6 +620,8 @@ fn from_any_operational_state_f32() {
     kani::cover!(r.output_changed, "an operational tick that changes an output");
     kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
+    kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
@@ -561,6 +632,8 @@ fn from_any_operational_state_fx() {
     kani::cover!(r.output_changed, "an operational tick that changes an output");
     kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
+    kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
@@ -621,6 +694,8 @@ fn from_one_axis_operational_state_f32() {
     kani::cover!(r.output_changed, "an operational tick that changes an output");
     kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
+    kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 37 symbolic values, 1 tick (as the f32 harness).
@@ -631,6 +706,8 @@ fn from_one_axis_operational_state_fx() {
     kani::cover!(r.output_changed, "an operational tick that changes an output");
     kani::cover!(r.runaway_fault, "a runaway fault (SR-9)");
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
+    kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
+    kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (the operational draw, the
