@@ -234,14 +234,6 @@ fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSp
         a.target = any_between(big.neg(), big);
         a.sp_velocity = any_between(vm.neg(), vm);
         a.speed = any_between(S::ZERO, big);
-        // Sampling: now and then a set-point at rest on its target (a hint:
-        // symbolically the set-point, target and velocity stay any values),
-        // so that states with every set-point at rest are drawn.
-        #[cfg(not(kani))]
-        if rest_all || kani::runner::hint::<u8>().is_multiple_of(4) {
-            a.target = a.setpoint;
-            a.sp_velocity = S::ZERO;
-        }
         a.path = any_between(big.neg(), big);
         a.fe_count = kani::any::<u32>() % (ms_to_ticks(cfg.following_error_ms, cfg.tick_hz) + 1);
         a.invalid = kani::any::<u32>() % (cfg.encoder_invalid_limit + 1);
@@ -253,6 +245,18 @@ fn any_state<S: Sym>(draw: Draw, scope: Scope) -> (Kernel<S>, Authority, StateSp
             }
             Draw::Latched => S::ZERO,
         };
+        // Sampling: now and then a set-point at rest on its target and, in
+        // Operational, no output (a hint: symbolically these stay any
+        // values), so that states with every set-point at rest and arms at
+        // rest are drawn.
+        #[cfg(not(kani))]
+        if rest_all || kani::runner::hint::<u8>().is_multiple_of(4) {
+            a.target = a.setpoint;
+            a.sp_velocity = S::ZERO;
+            if draw == Draw::Operational {
+                a.last_out = S::ZERO;
+            }
+        }
     }
     let seg = (ms_to_ticks(cfg.segment_min_ms, cfg.tick_hz), ms_to_ticks(cfg.segment_max_ms, cfg.tick_hz));
     let interval = || seg.0 + kani::any::<u32>() % (seg.1 - seg.0 + 1);
@@ -374,6 +378,10 @@ struct Reached {
     /// The command timeout expired with a set-point travelling (SR-7's
     /// antecedent).
     timeout_stop: bool,
+    /// `<HOME>` while the arm moves: the stop first (SR-14's antecedent).
+    home_stops_first: bool,
+    /// `<HOME>` at rest in Operational: a run starts (SR-14's antecedent).
+    rehoming_started: bool,
 }
 
 /// One tick from any admitted state of the kind `draw`; asserts what every
@@ -463,6 +471,8 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
         link_lost_moving: false,
         timeout_hold: false,
         timeout_stop: false,
+        home_stops_first: false,
+        rehoming_started: false,
     };
     if latched && !enable {
         assert!(after == before || after == State::Fault);
@@ -564,6 +574,28 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
             }
         }
     }
+    // SR-14: `<HOME>` (or `<HOMEn>` of a joint) in Operational, the link
+    // up: an arm that moves stops first (Stopping, `HomingAfterStop`), one
+    // at rest starts the run at once with the joints it homes counted
+    // unhomed (homing is repeatable from every admitted Operational state).
+    let joint_ok = home_joint.is_none_or(|j| usize::from(j) < AXES);
+    if before == State::Operational && home && joint_ok && !sense.link_lost {
+        if moving {
+            reached.home_stops_first = after == State::Stopping;
+            assert!(matches!(after, State::Stopping | State::Fault));
+            if after == State::Stopping {
+                assert!(o.events.iter().any(|e| *e == Event::HomingAfterStop));
+            }
+        } else {
+            reached.rehoming_started = after == State::Homing;
+            assert!(matches!(after, State::Homing | State::Fault));
+            if after == State::Homing {
+                let mask = home_joint.map_or(0x3f, |j| 1u8 << j);
+                assert!(o.events.iter().any(|e| *e == Event::HomingStarted { mask }));
+                assert!(k.homed() & mask == 0);
+            }
+        }
+    }
     // SR-31: the link lost while the arm moves in Operational stops it in
     // the same tick (or a fault does).
     if before == State::Operational && moving && sense.link_lost {
@@ -622,6 +654,8 @@ fn from_any_operational_state_f32() {
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
     kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
     kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
+    kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
+    kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
@@ -634,6 +668,8 @@ fn from_any_operational_state_fx() {
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
     kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
     kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
+    kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
+    kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
@@ -696,6 +732,8 @@ fn from_one_axis_operational_state_f32() {
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
     kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
     kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
+    kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
+    kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 37 symbolic values, 1 tick (as the f32 harness).
@@ -708,6 +746,8 @@ fn from_one_axis_operational_state_fx() {
     kani::cover!(r.link_lost_moving, "the link lost while moving (SR-31 antecedent)");
     kani::cover!(r.timeout_hold, "the timeout expires at rest: holds (SR-29)");
     kani::cover!(r.timeout_stop, "the timeout expires while travelling: stops (SR-7)");
+    kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
+    kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (the operational draw, the
