@@ -195,10 +195,10 @@ end_to_end!(soft_stop_ramps_monotonically_to_zero_and_latches_f32, soft_stop::<f
 end_to_end!(soft_stop_ramps_monotonically_to_zero_and_latches_fx, soft_stop::<Fx>, unwind 26, footprint 7 symbolic values, 43 ticks);
 
 /// SR-11: up to `encoder_invalid_limit` lost samples in a row are ridden
-/// through; one more faults every axis. The one-step lemmas assert the
-/// last step (an axis at the limit that reads one more invalid sample
-/// faults, from every admitted state); this run adds the count itself
-/// (each loss counted, none forgiven early) and the ride-through, which
+/// through; one more faults every axis. The one-step lemmas assert each
+/// step from every admitted state (below the limit an invalid sample is
+/// ridden through, at the limit one more faults); this run adds the count
+/// from sample to sample (each loss counted, none forgiven early), which
 /// the invariant states as a bound but no lemma can read back.
 #[cfg_attr(not(kani), kani::loops)]
 fn encoder_loss<S: Sym>() {

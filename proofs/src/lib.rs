@@ -44,8 +44,13 @@
 //! when these figures are not the ones it measures), so
 //! a harness's floating-point footprint is about its ticks times that. In
 //! an `_f32` harness each is an `f32` operation (Kani bit-blasts it); in
-//! an `_fx` harness each is integer arithmetic; in both, every checked
-//! tick adds the monitor's checks, which compare in `f64`.
+//! an `_fx` harness each is integer arithmetic (the kernel converts its
+//! configuration to I8F24 once, in `Kernel::new`, from constants). The
+//! Kani harnesses run no monitor: the one-step lemmas state their
+//! properties in the kernel's scalar type, so an `_fx` lemma compares raw
+//! I8F24 words (the `fixed` crate's ordering) and converts no symbolic
+//! value to a float. The monitor, which compares in `f64` through `f32`,
+//! checks every tick of the sampled end-to-end tests only.
 
 #![allow(clippy::needless_range_loop)] // six axes: indices read best
 

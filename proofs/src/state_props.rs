@@ -370,6 +370,8 @@ struct Reached {
     /// An axis at its invalid-sample limit read an invalid sample
     /// (SR-11's antecedent).
     encoder_loss_at_limit: bool,
+    /// An invalid sample below the limit (SR-11's ride-through).
+    encoder_loss_ridden: bool,
     /// The link lost while moving in Operational (SR-31's antecedent).
     link_lost_moving: bool,
     /// The command timeout expired with every set-point at rest on its
@@ -468,6 +470,7 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
         dependency_refused: false,
         homing_started: before == State::Unhomed && after == State::Homing,
         encoder_loss_at_limit: false,
+        encoder_loss_ridden: false,
         link_lost_moving: false,
         timeout_hold: false,
         timeout_stop: false,
@@ -538,6 +541,14 @@ fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
         if scope.symbolic(i) && before != State::Fault && bad && spec.axes[i].invalid == PAROL6.encoder_invalid_limit {
             reached.encoder_loss_at_limit = true;
             assert!(after == State::Fault);
+        }
+        // Below the limit the sample is ridden through: a fault in this
+        // tick, if any, has another reason.
+        if before != State::Fault && bad && spec.axes[i].invalid < PAROL6.encoder_invalid_limit {
+            reached.encoder_loss_ridden = true;
+            let axis = i as u8;
+            let this_encoder = |r: FaultReason| matches!(r, FaultReason::EncoderLost { axis: a } | FaultReason::EncoderJump { axis: a, .. } if a == axis);
+            assert!(o.status.fault.is_none_or(|f| !this_encoder(f.reason)));
         }
     }
     // SR-8: the timeout is armed only by an accepted motion command, and
@@ -657,6 +668,7 @@ fn from_any_operational_state_f32() {
     kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
     kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 116 symbolic values, 1 tick (the state (83), sensors (20), request (13)).
 #[kani::proof]
@@ -671,6 +683,7 @@ fn from_any_operational_state_fx() {
     kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
     kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 123 symbolic values, 1 tick (the state (90), sensors (20), request (13)).
 #[kani::proof]
@@ -701,6 +714,7 @@ fn from_any_latched_or_unhomed_state_f32() {
     kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
     kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 113 symbolic values, 1 tick (the state (80), sensors (20), request (13)).
 #[kani::proof]
@@ -715,6 +729,7 @@ fn from_any_latched_or_unhomed_state_fx() {
     kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
     kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 
 // The same steps with one axis symbolic (see `Scope`): a symbolic axis
@@ -735,6 +750,7 @@ fn from_one_axis_operational_state_f32() {
     kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
     kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 37 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -749,6 +765,7 @@ fn from_one_axis_operational_state_fx() {
     kani::cover!(r.home_stops_first, "<HOME> while moving stops first (SR-14)");
     kani::cover!(r.rehoming_started, "<HOME> at rest in Operational starts a run (SR-14)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (the operational draw, the
 /// axis's ramp start speed and the track flag).
@@ -782,6 +799,7 @@ fn from_one_axis_latched_or_unhomed_state_f32() {
     kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
     kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 /// Footprint: 39 symbolic values, 1 tick (as the f32 harness).
 #[kani::proof]
@@ -796,6 +814,7 @@ fn from_one_axis_latched_or_unhomed_state_fx() {
     kani::cover!(r.dependency_refused, "a per-joint home with a dependency unhomed (SR-13 antecedent)");
     kani::cover!(r.homing_started, "a homing run starts (SR-13, SR-16 antecedent)");
     kani::cover!(r.encoder_loss_at_limit, "an invalid sample at the limit (SR-11 antecedent)");
+    kani::cover!(r.encoder_loss_ridden, "an invalid sample below the limit (SR-11 antecedent)");
 }
 
 /// The first tick from power-on (the induction's base state, built by
