@@ -24,6 +24,18 @@
 //! `homing` (SR-13, SR-14, SR-16, SR-25 and SR-28 in Homing) and `motion`
 //! (SR-2, SR-18, SR-19, SR-25, SR-27, SR-28 in Operational).
 //!
+//! Comparisons run in the kernel's scalar type where a bound is one (SR-2,
+//! SR-9: I8F24 compares raw words) and otherwise in `f64` through `f32`.
+//! The per-tick step checks (SR-7's ramp step, SR-18's set-point speed,
+//! SR-25's acceleration) have an integer path for I8F24: the raw words'
+//! difference against the bound in words, exact, with no float operation
+//! on a value of the tick. The `f64` path gives the same verdict wherever
+//! both operands are exact in f32 (below 1 in magnitude, or 24 significant
+//! bits) and differs only where their f32 rounding, up to 7.2e-6, moves
+//! the step across the bound (4,656 of 1,769,904 enumerated pairs within
+//! 2,048 words of the PAROL6 bounds: `cargo test -p monitor --lib
+//! step_check -- --nocapture`).
+//!
 //! Checks and the requirement each covers (the `sr` of a [`Violation`]):
 //!
 //! | SR | check |
@@ -233,6 +245,9 @@ pub struct Monitor<S> {
     /// `max_velocity / N`, SR-18's `max_velocity / tick_hz`, SR-25's and
     /// SR-27's `max_acceleration / tick_hz`, SR-28's phase travel bounds.
     stop_step: [f64; AXES],
+    /// `S` is the fixed-point variant (I8F24): step checks compare raw
+    /// words ([`motion::is_fixed_point`]).
+    fixed: bool,
     vel_per_tick: [f64; AXES],
     acc_per_tick: [f64; AXES],
     fast_seek_travel: [f64; AXES],
@@ -281,6 +296,7 @@ impl<S: Scalar> Monitor<S> {
             fe_over: [0; AXES],
             rate_max: cfg.joints.map(|j| f64::from(j.max_velocity) * j.steps_per_rad() * 1.001 + 1.0),
             stop_step: cfg.joints.map(|j| f64::from(j.max_velocity) / n),
+            fixed: motion::is_fixed_point::<S>(),
             vel_per_tick: cfg.joints.map(|j| f64::from(j.max_velocity) / hz),
             acc_per_tick: cfg.joints.map(|j| f64::from(j.max_acceleration) / hz),
             fast_seek_travel: cfg.joints.map(|j| f64::from(j.homing.max_travel)),

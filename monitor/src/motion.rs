@@ -49,7 +49,8 @@ impl<S: Scalar> Monitor<S> {
     pub(crate) fn check_setpoint_speed(&self, t: &TickFacts<'_, S>) -> Checked {
         let (out, st) = (t.out, t.st);
         if st == State::Operational && t.prev == State::Operational {
-            let over = first_step_over(&out.status.setpoint, &self.prev_setpoint, 1.001, &self.vel_per_tick);
+            let over =
+                first_step_over(&out.status.setpoint, &self.prev_setpoint, 1.001, &self.vel_per_tick, self.fixed);
             if let Some((i, step, bound)) = over {
                 return Err(t.fail(Sr::Sr18, "set-point stepped more than vmax/tick_hz").on(i).got(step).bound(bound));
             }
@@ -304,7 +305,7 @@ impl<S: Scalar> Monitor<S> {
     pub(crate) fn check_output_acceleration(&self, t: &TickFacts<'_, S>) -> Checked {
         let (out, st) = (t.out, t.st);
         if st == State::Operational {
-            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.0001, &self.acc_per_tick);
+            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.0001, &self.acc_per_tick, self.fixed);
             if let Some((i, dv, bound)) = over {
                 return Err(t
                     .fail(Sr::Sr25, "output stepped more than max_acceleration/tick_hz")
@@ -319,22 +320,67 @@ impl<S: Scalar> Monitor<S> {
 
 /// The first axis whose value moved between two ticks by more than its
 /// per-tick bound `limit[axis]` (times `rel`, plus 1e-6 of slack; a NaN
-/// step is over): (axis, step, bound).
+/// step is over): (axis, step, bound). With `fixed` (`S` is I8F24,
+/// [`is_fixed_point`]) the step is compared in integer arithmetic on the
+/// raw words ([`step_within_words`]: exact, no float operation on a value
+/// of the tick); otherwise in `f64` ([`step_within_f64`]).
 pub(crate) fn first_step_over<S: Scalar>(
     now: &[S; AXES],
     before: &[S; AXES],
     rel: f64,
     limit: &[f64; AXES],
+    fixed: bool,
 ) -> Option<(usize, f64, f64)> {
     for (i, ((a, b), bound)) in now.iter().zip(before.iter()).zip(limit.iter()).enumerate() {
-        let step = (f(*a) - f(*b)).abs();
         let bound = *bound;
-        let within = step <= bound * rel + 1e-6;
+        let slack = bound * rel + 1e-6;
+        let within = if fixed {
+            step_within_words(fx_word(*a), fx_word(*b), slack_words(slack))
+        } else {
+            step_within_f64(*a, *b, slack)
+        };
         if !within {
-            return Some((i, step, bound));
+            return Some((i, (f(*a) - f(*b)).abs(), bound));
         }
     }
     None
+}
+
+/// One I8F24 word per unit: 2^24.
+const FX_SCALE: i64 = 1 << 24;
+
+/// `S` is the fixed-point variant (I8F24): the one without infinities
+/// (`from_f32` of an infinity saturates to a finite value; f32 keeps it).
+/// Asked once, by `Monitor::new`.
+pub(crate) fn is_fixed_point<S: Scalar>() -> bool {
+    S::from_f32(f32::INFINITY).is_finite()
+}
+
+/// The raw I8F24 word of `x` (`S` the fixed-point variant).
+/// `kernel::Scalar` offers no raw word, so it is read through
+/// `Scalar::to_scaled_int` at the word's own scale, 2^24, which for I8F24
+/// is exact (`round(word * 2^24 / 2^24)` = the word).
+/// (`tests::fx_word_is_the_raw_word`.)
+pub(crate) fn fx_word<S: Scalar>(x: S) -> i64 {
+    x.to_scaled_int(FX_SCALE)
+}
+
+/// The largest step in I8F24 words within `slack` (rad or rad/s; finite,
+/// non-negative: the monitor's bounds): `floor(slack * 2^24)`.
+pub(crate) fn slack_words(slack: f64) -> u64 {
+    // Exact: a power-of-two scale, and `as` truncates toward zero (the
+    // floor of a non-negative value), saturating.
+    (slack * FX_SCALE as f64) as u64
+}
+
+/// The integer path: consecutive I8F24 words `a`, `b` at most `words` apart.
+pub(crate) fn step_within_words(a: i64, b: i64, words: u64) -> bool {
+    a.abs_diff(b) <= words
+}
+
+/// The `f64` path: `|a - b| <= slack` through `f32` (NaN is over).
+pub(crate) fn step_within_f64<S: Scalar>(a: S, b: S, slack: f64) -> bool {
+    (f(a) - f(b)).abs() <= slack
 }
 
 /// One LSB of the fixed-point variant (I8F24).

@@ -105,7 +105,7 @@ impl<S: Scalar> Monitor<S> {
                     t.fail(Sr::Sr7, "soft stop reversed").on(i).got(f(a)).bound(f(b))
                 );
             }
-            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.001, &self.stop_step);
+            let over = first_step_over(&out.act.velocity, &self.prev_out, 1.001, &self.stop_step, self.fixed);
             if let Some((i, step, bound)) = over {
                 return Err(t
                     .fail(Sr::Sr7, "soft stop decelerates more than vmax/N in a tick")

@@ -652,3 +652,111 @@ fn sr30_a_frame_inside_a_go_to_s_stopping_distance_accepted() {
     });
     assert_eq!(v.axis, Some(5), "{v}");
 }
+
+/// `fx_word` reads the raw I8F24 word (every boundary word and a stride
+/// through the whole range); only I8F24 is taken for the fixed-point
+/// variant.
+#[test]
+fn fx_word_is_the_raw_word() {
+    use crate::motion::{fx_word, is_fixed_point};
+    use kernel::Fx;
+    assert!(is_fixed_point::<Fx>() && !is_fixed_point::<f32>());
+    let mut n = 0u64;
+    for w in [i32::MIN, i32::MIN + 1, -1, 0, 1, 1 << 24, i32::MAX - 1, i32::MAX]
+        .into_iter()
+        .chain((i32::MIN..=i32::MAX).step_by(65_521))
+    {
+        assert_eq!(fx_word(Fx::from_bits(w)), i64::from(w), "word {w}");
+        n += 1;
+    }
+    println!("fx_word: {n} words read back exactly");
+}
+
+/// The SR-7, SR-18 and SR-25 step check (`first_step_over`) compares
+/// I8F24 in integer arithmetic on the raw words; its `f64` path (through
+/// `to_f32`) must give the same verdict wherever both operands are exact in
+/// f32, and elsewhere differ only where the two operands' f32 rounding
+/// (half an f32 ulp each) moves the step across the bound: the integer
+/// path is the exact one. Enumerated slices, not the whole domain: for each
+/// of the monitor's PAROL6 step bounds (acceleration, set-point speed and
+/// ramp step per joint), every step within 2048 words of the bound, up and
+/// down, from 36 base words (0 and both signs of 0.5 to 127 rad, each also
+/// with odd low bits).
+#[test]
+fn step_check_integer_and_f64_paths_agree() {
+    use crate::motion::{slack_words, step_within_f64, step_within_words};
+    use kernel::Fx;
+    let mon = Monitor::<Fx>::new(&PAROL6);
+    let mut slacks: Vec<f64> = Vec::new();
+    for i in 0..AXES {
+        slacks.push(mon.acc_per_tick[i] * 1.0001 + 1e-6);
+        slacks.push(mon.vel_per_tick[i] * 1.001 + 1e-6);
+        slacks.push(mon.stop_step[i] * 1.001 + 1e-6);
+    }
+    slacks.sort_by(f64::total_cmp);
+    slacks.dedup();
+    let mut bases: Vec<i64> = vec![0];
+    for v in [0.5f64, 1.0, 1.5, 3.0, 7.25, 42.0, 100.0, 127.0] {
+        let w = (v * 16_777_216.0) as i64;
+        for b in [w, w + 12_345, -w, -w - 12_345] {
+            bases.push(b);
+        }
+    }
+    bases.push(12_345);
+    bases.push(-12_345);
+    bases.push(1);
+    // At most 24 significant bits: the word converts to f32 exactly.
+    let exact_in_f32 = |w: i64| {
+        let u = w.unsigned_abs();
+        u < (1 << 24) || u.trailing_zeros() >= (64 - u.leading_zeros()).saturating_sub(24)
+    };
+    let half_ulp = |w: i64| {
+        let x = (w as f64 / 16_777_216.0).abs() as f32;
+        f64::from(x.next_up() - x) / 2.0
+    };
+    let (mut pairs, mut agree, mut differ) = (0u64, 0u64, 0u64);
+    let mut widest = 0.0f64;
+    for &slack in &slacks {
+        let k = slack_words(slack) as i64;
+        assert!(k > 0 && (k as f64) <= slack * 16_777_216.0 && ((k + 1) as f64) > slack * 16_777_216.0);
+        for &b in &bases {
+            for d in -2048i64..=2048 {
+                for a in [b + k + d, b - k - d] {
+                    if i64::from(i32::MIN) > a || a > i64::from(i32::MAX) {
+                        continue;
+                    }
+                    pairs += 1;
+                    let (fa, fb) = (Fx::from_bits(a as i32), Fx::from_bits(b as i32));
+                    let int = step_within_words(a, b, slack_words(slack));
+                    let flt = step_within_f64(fa, fb, slack);
+                    if int == flt {
+                        agree += 1;
+                        continue;
+                    }
+                    differ += 1;
+                    assert!(
+                        !(exact_in_f32(a) && exact_in_f32(b)),
+                        "paths differ with both operands exact in f32: a {a}, b {b}, slack {slack}"
+                    );
+                    let exact = (a - b).unsigned_abs() as f64 / 16_777_216.0;
+                    let rounded = (f64::from(fa.to_f32()) - f64::from(fb.to_f32())).abs();
+                    let err = (exact - rounded).abs();
+                    assert!(
+                        err <= half_ulp(a) + half_ulp(b),
+                        "a {a}, b {b}: the f32 rounding {err} explains no difference"
+                    );
+                    assert!(
+                        (exact - slack).abs() <= err,
+                        "a {a}, b {b}: the step {exact} is not within rounding of {slack}"
+                    );
+                    widest = widest.max(err);
+                }
+            }
+        }
+    }
+    println!(
+        "step check: {} bounds, {pairs} pairs: {agree} same verdict, {differ} differ (all within the operands' f32 rounding, at most {widest:.3e})",
+        slacks.len()
+    );
+    assert!(pairs > 1_000_000 && agree > 0);
+}
