@@ -25,7 +25,10 @@
 //!
 //! Configuration: the real `PAROL6_VALIDATED` (nothing is replayed, so no
 //! relaxation is needed). Not drawn: Boot and Homing (their state is a run
-//! in progress; the replayed harnesses and the model cover them).
+//! in progress, which `Kernel::from_spec` does not offer); the first tick
+//! from power-on is the base-case harness below, the later Boot ticks and
+//! the Homing ticks are covered by the sampled end-to-end tests
+//! (`kernel_props`, `motion_props`) and the model.
 //!
 //! Unwind: no harness loop here runs more than the six axes (7), the same
 //! as every loop of the code under test (`setup::KERNEL_UNWIND`).
