@@ -35,7 +35,10 @@
 //! included, on its longest path (`/// Footprint: N symbolic values, T
 //! ticks`), counted from its code. The shim counts both on every case and
 //! fails a case that exceeds either (`kani::runner::Footprint`); its report
-//! line gives the largest seen. Draws that only steer the shim's sampling
+//! line gives the largest seen. `#[kani::proof]` refuses, at compile time,
+//! a stated footprint beyond the budget: one kernel tick and 128 symbolic
+//! values (`kani-shim-macros`); a run of several ticks is a sampled
+//! end-to-end test (`setup::end_to_end!`). Draws that only steer the shim's sampling
 //! (`kani::runner::hint`, in `#[cfg(not(kani))]` code) are no symbolic
 //! values. Floating point: a kernel tick runs 859-1273 scalar operations
 //! (arithmetic, min/max, comparisons; idle 885, accepting a target 1273,

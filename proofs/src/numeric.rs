@@ -1,7 +1,7 @@
 //! Per-axis numeric functions: saturation, control law, unwrapping,
 //! observer, interpolator, target validation.
 
-use crate::setup::{operational, target, Sym, PROOF_CONFIG};
+use crate::setup::{target, Sym, PROOF_CONFIG};
 use kernel::config::AXES;
 use kernel::control::control_law;
 use kernel::interp::Interpolator;
@@ -294,7 +294,9 @@ fn interpolator_step_is_acceleration_limited_and_never_passes_fx() {
 /// within its limit.
 #[cfg_attr(not(kani), kani::loops)]
 fn validation<S: Sym>() {
-    let (k, _) = operational::<S>();
+    // Validation reads the configuration's limits only (`TargetLimits`,
+    // built by `Kernel::new`), not the state: a fresh kernel, no tick.
+    let (k, _) = crate::setup::new_kernel::<S>(&crate::setup::PROOF_VALIDATED);
     let t = any_target::<S>();
     let ok = k.validate(&t).is_ok();
     kani::cover!(ok, "some target accepted (antecedent)");
@@ -312,15 +314,15 @@ fn validation<S: Sym>() {
     }
 }
 
-/// Footprint: 12 symbolic values, 27 ticks (a target (12 values); the ticks are the concrete set-up).
+/// Footprint: 12 symbolic values, 0 ticks (a target (12 values)).
 #[kani::proof]
-#[kani::unwind(26)] // setup::run_homing: 25 ticks; any_target and the checks: 6 axes
+#[kani::unwind(7)] // Kernel::new, any_target and the checks: 6 axes
 fn accepted_targets_are_within_limits_f32() {
     validation::<f32>();
 }
-/// Footprint: 12 symbolic values, 27 ticks (a target (12 values); the ticks are the concrete set-up).
+/// Footprint: 12 symbolic values, 0 ticks (a target (12 values)).
 #[kani::proof]
-#[kani::unwind(26)] // as the f32 harness
+#[kani::unwind(7)] // as the f32 harness
 fn accepted_targets_are_within_limits_fx() {
     validation::<Fx>();
 }

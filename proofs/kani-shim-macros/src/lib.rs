@@ -55,6 +55,9 @@ pub fn proof(_attr: TokenStream, item: TokenStream) -> TokenStream {
              `/// Footprint: N symbolic values, T ticks` (see kani_shim::runner::Footprint)",
         );
     };
+    if let Err(e) = within_budget(values, ticks) {
+        return error(&e);
+    }
     let inner = Ident::new(&format!("__kani_harness_{name}"), Span::call_site());
     // Rename the harness so the test can take its name; instrument its body.
     let mut renamed: Vec<TokenTree> = Vec::with_capacity(tokens.len());
@@ -117,6 +120,36 @@ pub fn solver(_attr: TokenStream, item: TokenStream) -> TokenStream {
 
 fn error(msg: &str) -> TokenStream {
     format!("compile_error!({msg:?});").parse().unwrap_or_default()
+}
+
+/// Kernel ticks a Kani harness may run: one. A harness of the whole tick
+/// is a one-step lemma (one tick from a stated state; its induction is
+/// argued beside it); a run of several ticks is a sampled end-to-end test
+/// (`proofs::setup::end_to_end!`), not a Kani harness.
+const TICK_BUDGET: u64 = 1;
+
+/// Symbolic values a Kani harness may draw: 128, above the largest stated
+/// today (the whole-state lemmas, 113-123, whose one-axis versions draw
+/// 37-39). Whether Kani finishes a harness within the workflow's limit is
+/// known only where Kani runs; the budget keeps a new harness from
+/// growing past the ones stated.
+const VALUE_BUDGET: u64 = 128;
+
+/// A stated footprint within the budget, or why not (a compile error).
+fn within_budget(values: u64, ticks: u64) -> Result<(), String> {
+    if ticks > TICK_BUDGET {
+        return Err(format!(
+            "a #[kani::proof] harness runs at most {TICK_BUDGET} kernel tick (it states {ticks}): write a one-step \
+             lemma from a stated state, or a sampled end-to-end test (proofs::setup::end_to_end!)"
+        ));
+    }
+    if values > VALUE_BUDGET {
+        return Err(format!(
+            "a #[kani::proof] harness draws at most {VALUE_BUDGET} symbolic values (it states {values}): split it \
+             (per axis, per phase)"
+        ));
+    }
+    Ok(())
 }
 
 /// The footprint a harness states in its documentation: the text after
@@ -385,5 +418,22 @@ fn recurse(t: &TokenTree) -> TokenTree {
             TokenTree::Group(ng)
         }
         other => other.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::within_budget;
+
+    /// The budget admits every footprint up to one tick and 128 symbolic
+    /// values, and refuses one more of either.
+    #[test]
+    fn the_footprint_budget_refuses_a_second_tick_and_a_129th_value() {
+        assert_eq!(within_budget(128, 1), Ok(()));
+        assert_eq!(within_budget(0, 0), Ok(()));
+        let e = within_budget(12, 2).expect_err("two ticks");
+        assert!(e.contains("at most 1 kernel tick") && e.contains("end_to_end"), "{e}");
+        let e = within_budget(129, 1).expect_err("129 values");
+        assert!(e.contains("at most 128 symbolic values"), "{e}");
     }
 }

@@ -26,7 +26,9 @@
 //! every case counts the primitive values `kani::any()` draws and the
 //! ticks reported through [`runner::tick`], and one that exceeds either
 //! figure fails the harness ([`runner::Footprint`]). Draws that only steer
-//! sampling go through [`runner::hint`] and are not counted.
+//! sampling go through [`runner::hint`] and are not counted. A stated
+//! footprint beyond the budget (one kernel tick, 128 symbolic values) is a
+//! compile error of `#[kani::proof]` (`kani-shim-macros`).
 //!
 //! Loop bounds are checked as Kani checks them: with `#[kani::unwind(N)]`
 //! every loop the shim can see (the harness's own body and helpers marked
