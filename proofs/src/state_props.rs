@@ -391,6 +391,21 @@ struct Reached {
 
 /// One tick from any admitted state of the kind `draw`; asserts what every
 /// tick guarantees, and returns the draw-specific antecedents it reached.
+///
+/// Induction. Invariant: `Kernel::invariant` (SR-32). Base:
+/// `initial_state_satisfies_the_invariant` (the state `Kernel::new`
+/// builds) and `first_tick_is_still_and_starts_at_the_readings_*` (its
+/// first tick). Step: this function, from every state the invariant
+/// admits in Unhomed, Operational, Stopping, SoftEstop or Fault, with any
+/// sensors and request: the invariant holds after the tick, and so does
+/// each property asserted below. Conclusion: each property holds on every
+/// tick of every run of `PAROL6` from those states. Condition, not
+/// discharged here: the ticks from a Boot state after the first and from
+/// a Homing state (not offered by `Kernel::from_spec`) keep the invariant;
+/// the sampled end-to-end tests (`kernel_props`, `motion_props`) assert it
+/// on each of their ticks, and the model in every state it explores. The
+/// one-axis scope (`Scope::OneAxis`) proves the step for states with the
+/// other five axes at rest only; the whole-state harnesses for all.
 #[cfg_attr(not(kani), kani::loops)]
 fn step<S: Sym>(draw: Draw, scope: Scope) -> Reached {
     let (mut k, auth, spec) = any_state::<S>(draw, scope);
