@@ -1,6 +1,6 @@
 //! Sampled end-to-end tests: multi-tick runs of the real `Kernel::tick`
 //! from power-on, through the public API (see `setup`), run by the shim
-//! (`setup::end_to_end!`) and **not Kani harnesses** (tens of ticks each).
+//! (`setup::end_to_end!`) and **not Kani harnesses** (11 to 57 ticks each).
 //!
 //! Their safety assertions are carried to every tick by one-step lemmas
 //! and an induction (`state_props`): the base case is the state
