@@ -96,7 +96,7 @@ if [ "${QUICK:-0}" != "1" ]; then
     # small and homing, Kernel<f32> tiny) run to completion (model-checked).
     # Any property violated in an explored state fails the step. The
     # mutants: one per model-checked requirement.
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full to depth 44 (every 42-tick path), small, homing and tiny to completion; 17 kernel mutants)"
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full to depth 44 (every 42-tick path), small, homing and tiny to completion; 18 kernel mutants)"
     cargo run -p model --release --locked -- --depth 44
     proofs/model/mutants.sh
 

@@ -130,6 +130,14 @@ mutant done-axis-reads-its-record kernel/src/homing.rs \
     '        self.phase' \
     '        if self.phase == Phase::Done && self.ticks > 0 { Phase::FastSeek } else { self.phase }' \
     homing 'SR-14: an axis of a homing run counted homed before its zero was captured'
+# A finished homing axis waits, stepped, for the rest of its group (the
+# homing configuration's J4 may finish a tick after J5): a kernel whose
+# finished axis still counts its timeout faults a run that should
+# complete, naming the waiting axis.
+mutant done-axis-times-out-while-waiting kernel/src/homing.rs \
+    '        if !self.phase.is_moving() {' \
+    '        if !self.phase.is_moving() && self.phase != Phase::Done {' \
+    homing 'SR-14/16: a finished homing axis moved, left Done or faulted while its group was still moving'
 mutant phases-kept-after-homing kernel/src/kernel/homing_seq.rs \
     '            ax.homing.reset(false);' \
     '            let _ = ax;' \

@@ -53,6 +53,7 @@ checks! {
     RehomeClears => "SR-14: a re-homed axis still counted homed when its run started",
     HomedBeforeCapture => "SR-14: an axis of a homing run counted homed before its zero was captured",
     RunHomes => "SR-14: a homing run ended without homing its axes",
+    WaitAtRest => "SR-14/16: a finished homing axis moved, left Done or faulted while its group was still moving",
     LimitSwitch => "SR-10: a limit switch did not fault in the same tick",
     HardwareFault => "SR-21: a hardware fault did not fault in the same tick",
     EncoderFaultInTime => "SR-11: the encoder fault did not come in the same tick",

@@ -24,12 +24,29 @@ pub(crate) const MODEL_CONFIG: ArmConfig = {
     c
 };
 
+/// The homing configuration's arm: `MODEL_CONFIG` with J4's homing timeout
+/// one tick longer than J5's. On the arm a joint's timeout follows its
+/// nominal homing time (1.2 times it, over the joint's range and speeds),
+/// so the axes of a group have unequal homing times and the quicker one
+/// finishes first and waits, stepped but at rest, for the rest of its
+/// group. With every axis at the shortest timeout that homes (8 ms), any
+/// axis of a group that finishes later than its sibling has run out of
+/// time: the wait is reached, but only toward a homing timeout. J4's
+/// 9 ms lets its switch arrive a tick late in its fast seek, so J5 waits
+/// in `Done` and the group then completes
+/// (`tests::a_late_j4_completes_its_group_while_j5_waits`).
+pub(crate) const HOMING_MODEL_CONFIG: ArmConfig = {
+    let mut c = MODEL_CONFIG;
+    c.joints[3].homing.timeout_ms = 9;
+    c
+};
+
 /// What `MODEL_CONFIG` relaxes of `kernel::config::check` (the rule each
 /// breaks); the same three as `proofs::setup::PROOF_RELAXATIONS`.
 pub(crate) const MODEL_RELAXATIONS: [(&str, &str); 3] = [
     ("joints[*].homing.backoff = 0", "homing back-off must be in (0, 0.5) rad"),
     (
-        "joints[*].homing.timeout_ms = 8",
+        "joints[*].homing.timeout_ms = 8 (J4: 9 in the homing configuration)",
         "homing timeout shorter than 1.2x the nominal homing time: homing is impossible",
     ),
     ("soft_stop_ms = 4", "soft-stop ramp decelerates faster than max_acceleration"),
@@ -47,19 +64,55 @@ mod tests {
     /// when every seeking axis's switch arrives on the first tick it seeks
     /// (the fastest run the model's environment offers).
     fn homes(c: ArmConfig) -> bool {
+        homes_with_j4_late(c, 0).0
+    }
+
+    /// `<HOME>` with every seeking axis's switch arriving on the first tick
+    /// it seeks but J4's, which arrives `late` ticks later in its fast
+    /// seek: whether the run ends Operational, and how many ticks J5 spent
+    /// in `Done` while J4 was still moving.
+    fn homes_with_j4_late(c: ArmConfig, late: u32) -> (bool, u32) {
         let (mut k, _) = new_kernel::<Fx>(&Validated::relaxed(c));
         k.tick(&still(0), None);
         k.tick(&still(0), Some(Request::Home));
-        for _ in 0..HOMING_TICKS {
+        let (mut j4_seeking, mut waited) = (0, 0);
+        // (`late` more ticks than the fastest run; 16 to spare.)
+        for _ in 0..HOMING_TICKS + late + 16 {
             if k.state() != State::Homing {
                 break;
             }
             let phases = k.homing_phases();
+            if phases[4] == Phase::Done && phases[3].is_moving() {
+                waited += 1;
+            }
+            if phases[3] == Phase::FastSeek {
+                j4_seeking += 1;
+            }
             let seeking = phases.iter().enumerate().filter(|(_, p)| matches!(p, Phase::FastSeek | Phase::SlowSeek));
-            let limits = seeking.fold(0u8, |m, (i, _)| m | 1 << i);
+            let mut limits = seeking.fold(0u8, |m, (i, _)| m | 1 << i);
+            if phases[3] == Phase::FastSeek && j4_seeking <= late {
+                limits &= !(1 << 3);
+            }
             k.tick(&still(limits), None);
         }
-        k.state() == State::Operational
+        (k.state() == State::Operational, waited)
+    }
+
+    /// The homing configuration reaches a finished axis waiting for its
+    /// group and the group then completing: J4's switch a tick late, J5
+    /// waits in `Done` and the run homes; with J4 at the 8 ms every other
+    /// axis has, the same arrival ends in J4's homing timeout.
+    #[test]
+    fn a_late_j4_completes_its_group_while_j5_waits() {
+        assert_eq!(homes_with_j4_late(HOMING_MODEL_CONFIG, 0), (true, 0), "on time: no wait");
+        let (homed, waited) = homes_with_j4_late(HOMING_MODEL_CONFIG, 1);
+        assert!(homed && waited > 0, "a tick late: homed {homed}, J5 waited {waited} ticks");
+        assert!(!homes_with_j4_late(HOMING_MODEL_CONFIG, 2).0, "two ticks late J4 still homes in 9 ms");
+        assert!(!homes_with_j4_late(MODEL_CONFIG, 1).0, "a tick late J4 homes in 8 ms");
+        // Only J4's timeout differs from the other configurations' arm.
+        let mut c = HOMING_MODEL_CONFIG;
+        c.joints[3].homing.timeout_ms = MODEL_CONFIG.joints[3].homing.timeout_ms;
+        assert_eq!(c, MODEL_CONFIG);
     }
 
     /// The 8 ms homing timeout is the shortest with which a homing run can

@@ -51,7 +51,8 @@
 //!   `config::tests::model_config_relaxes_exactly_the_named_rules`: zero homing
 //!   back-off (a stationary arm never travels one), 8 ms homing timeouts
 //!   (the shortest with which a run homes,
-//!   `config::tests::the_homing_timeout_is_the_shortest_that_homes`) and a
+//!   `config::tests::the_homing_timeout_is_the_shortest_that_homes`; J4's
+//!   is 9 ms in the homing configuration) and a
 //!   4 ms soft-stop ramp (faster than `max_acceleration`, PAROL6's).
 //!   The kernel's continuous state (set-point velocities,
 //!   following-error paths, homing ramps) keeps the model from finishing:
@@ -82,7 +83,17 @@
 //!   axes' switches on every tick (every arrival order), perturbations none
 //!   and a tick overrun (to leave a run by a fault and an enable). With the
 //!   small one it gives complete runs for every arrival order and
-//!   `<HOMEn>` (SR-13, SR-14, SR-16).
+//!   `<HOMEn>` (SR-13, SR-14, SR-16). Its arm (`HOMING_MODEL_CONFIG`) gives
+//!   J4 a 9 ms homing timeout, one tick more than J5's (on the arm the
+//!   timeouts of a group's joints differ with their ranges): with equal
+//!   shortest timeouts an axis that finishes after its sibling has run out
+//!   of time, so a finished axis waits only toward a homing timeout; here
+//!   J5 also waits, `Done` and stepped at rest, for a J4 whose switch came
+//!   a tick late, and the group then completes (the `sometimes` property
+//!   "a finished homing axis waited for its group, which then completed";
+//!   `config::tests::a_late_j4_completes_its_group_while_j5_waits`). The
+//!   property "SR-14/16: a finished homing axis moved, left Done or faulted
+//!   while its group was still moving" checks every such wait.
 //! - States are identified by `Kernel`'s behavioural hash (everything but the
 //!   tick counter and the fault timestamp, which no decision reads, and the
 //!   run record of a homing axis in `Idle` or `Done`, which nothing reads

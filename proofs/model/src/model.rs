@@ -1,7 +1,7 @@
 //! The model: its configurations (full, small, tiny, homing) and the
 //! stateright `Model` over the real kernel.
 
-use crate::config::MODEL_CONFIG;
+use crate::config::{HOMING_MODEL_CONFIG, MODEL_CONFIG};
 use crate::environment::Action;
 use crate::identity::ModelScalar;
 use crate::state::{St, J1};
@@ -59,7 +59,10 @@ pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
         let j = &MODEL_CONFIG.joints[i];
         *h = h.clamp_between(S::from_f32(j.limit_min + 0.01), S::from_f32(j.limit_max - 0.01));
     }
-    let (init, authority) = new_kernel::<S>(&kernel::config::Validated::relaxed(MODEL_CONFIG));
+    // The homing configuration's J4 has a longer homing timeout (so J5
+    // finishes first and waits for it); nothing else differs.
+    let arm = if homing { HOMING_MODEL_CONFIG } else { MODEL_CONFIG };
+    let (init, authority) = new_kernel::<S>(&kernel::config::Validated::relaxed(arm));
     // J1 10 mrad beyond its nearer limit (20 mrad from `here`, well within
     // a stream sample's reach), every other joint where it is.
     let mut out_of_limits = here;
@@ -81,6 +84,7 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             ever_enabled: false,
             j1: J1 { seen: false, reference: 0, run: 0 },
             ramp: None,
+            group_waited: false,
         }]
     }
 

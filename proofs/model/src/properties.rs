@@ -55,6 +55,10 @@ impl<S: ModelScalar> Supervisor<S> {
                 Property::<Self>::sometimes("a per-joint run of J6 (<HOME6>)", |_, s| {
                     s.k.state() == State::Homing && s.k.homing_phases()[0] == Phase::Idle
                 }),
+                Property::<Self>::sometimes(
+                    "a finished homing axis waited for its group, which then completed",
+                    |_, s| s.group_waited,
+                ),
                 Property::<Self>::sometimes("J1 re-homed alone (<HOME1>)", |_, s| {
                     s.k.state() == State::Homing
                         && s.k.homing_phases()[0].is_moving()

@@ -28,6 +28,11 @@ pub(crate) struct St<S: Scalar> {
     /// The soft-stop ramp: its tick (1 on the timeout tick) and the outputs
     /// it started from.
     pub(crate) ramp: Option<(u32, [S; AXES])>,
+    /// The transition into this state completed a homing group one of
+    /// whose axes had finished (`Done`) before it and waited, at rest, for
+    /// a sibling still moving (for reachability only: the kernel's future
+    /// does not depend on it).
+    pub(crate) group_waited: bool,
 }
 
 impl<S: ModelScalar> St<S> {
@@ -41,7 +46,7 @@ impl<S: ModelScalar> St<S> {
 impl<S: ModelScalar> Hash for St<S> {
     fn hash<H: Hasher>(&self, h: &mut H) {
         S::hash_kernel(&self.k, h);
-        (self.violated, self.ever_enabled, self.j1).hash(h);
+        (self.violated, self.ever_enabled, self.j1, self.group_waited).hash(h);
         // The ramp's start equals the kernel's Stopping v0 (hashed above);
         // its tick is the kernel's k + 1.
         self.ramp.map(|(k, _)| k).hash(h);

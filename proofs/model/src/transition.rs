@@ -7,7 +7,7 @@ use crate::environment::{Action, Req};
 use crate::identity::ModelScalar;
 use crate::model::Supervisor;
 use crate::state::{St, J1};
-use kernel::config::AXES;
+use kernel::config::{AXES, HOMING_GROUPS};
 use kernel::homing::Phase;
 use kernel::{EncoderSample, Event, FaultReason, RequestKind, Scalar, State};
 use proofs::setup::{COUNTS, SEED_DEPENDENCIES};
@@ -58,6 +58,46 @@ impl<S: ModelScalar> Supervisor<S> {
                 c.check(Check::RunHomes, ended, n.k.homed() & mask == *mask);
             }
         }
+    }
+
+    /// SR-14, SR-16: an axis that finished its phases (`Done`) while a
+    /// sibling of its group still moves waits for the group: its output is
+    /// zero, it stays `Done`, and no homing fault names it (its timeout and
+    /// travel bound no longer run). Returns whether this tick completed
+    /// such a group: every axis of it `Done`, the run going on.
+    pub(crate) fn wait_checks<'e>(
+        &self,
+        s: &St<S>,
+        n: &St<S>,
+        out: &[S; AXES],
+        events: impl Iterator<Item = &'e Event>,
+        c: &mut Checks,
+    ) -> bool {
+        if s.k.state() != State::Homing {
+            return false;
+        }
+        let (before, after) = (s.k.homing_phases(), n.k.homing_phases());
+        let homing = n.k.state() == State::Homing;
+        // The axes a homing fault of this tick names.
+        let named = events.fold(0u8, |m, e| match e {
+            Event::Fault(FaultReason::HomingTimeout { axis, .. } | FaultReason::HomingTravel { axis, .. }) => {
+                m | 1u8.checked_shl(u32::from(*axis)).unwrap_or(0)
+            }
+            _ => m,
+        });
+        let mut completed = false;
+        for g in HOMING_GROUPS {
+            let in_group = |i: &usize| g & (1 << i) != 0;
+            if !(0..AXES).filter(in_group).any(|i| before[i].is_moving()) {
+                continue;
+            }
+            for i in (0..AXES).filter(in_group).filter(|i| before[*i] == Phase::Done) {
+                let done = !homing || after[i] == Phase::Done;
+                c.check(Check::WaitAtRest, true, out[i] == S::ZERO && done && named & (1 << i) == 0);
+                completed |= homing && (0..AXES).filter(in_group).all(|j| after[j] == Phase::Done);
+            }
+        }
+        completed
     }
 
     /// The successor of `s` on the environment's choice `a`, with the
@@ -129,6 +169,7 @@ impl<S: ModelScalar> Supervisor<S> {
             }
         }
         self.rehoming_checks(s, &n, o.events.iter(), &mut c);
+        n.group_waited = self.wait_checks(s, &n, &out, o.events.iter(), &mut c);
         // SR-10: a homed joint's pressed switch faults in the same tick in
         // Operational, Stopping, SoftEstop, and during homing at rest (an
         // unhomed joint's switch is its homing input in every state).
