@@ -136,6 +136,8 @@
 mod census;
 mod checks;
 mod config;
+#[cfg(test)]
+mod coupling_tests;
 mod environment;
 #[cfg(test)]
 mod evidence_tests;
