@@ -1,5 +1,7 @@
 //! A census of the explored states (`--census`): how many unique states
-//! each kernel state, homed mask and tuple of homing phases holds, to show
+//! each kernel state, homed mask and tuple of homing phases holds, and how
+//! many were first reached after each number of ticks (where an
+//! exploration still grows when it is stopped), to show
 //! where a configuration's state space lies (the full configuration's in
 //! homing runs and, once homed, in the set-points' trajectories and
 //! soft-stop ramps). Off unless asked for: it takes a lock per transition.
@@ -13,10 +15,13 @@ use std::sync::Mutex;
 /// Whether this run takes the census.
 pub(crate) static ON: AtomicBool = AtomicBool::new(false);
 
-/// The state fingerprints seen, by class (state, homed mask, phases).
-/// Sharded by fingerprint so the two exploring threads rarely wait.
+/// The state fingerprints seen, by class (state, homed mask, phases), and
+/// how many states were first reached after each number of ticks from
+/// power-on, by kernel state. Sharded by fingerprint so the two exploring
+/// threads rarely wait.
 type Classes = HashMap<String, HashSet<u64>>;
-static SEEN: [Mutex<Option<Classes>>; 16] = [const { Mutex::new(None) }; 16];
+type Levels = BTreeMap<(u32, String), usize>;
+static SEEN: [Mutex<Option<(Classes, Levels)>>; 16] = [const { Mutex::new(None) }; 16];
 
 /// A state's class: its kernel state, homed mask and each axis's homing
 /// phase (two letters: `Wa`iting, `Fa`stSeek, `Ba`ckOff, `Sl`owSeek,
@@ -34,20 +39,34 @@ pub(crate) fn note<S: ModelScalar>(n: &St<S>) {
     let f = n.fingerprint();
     let Some(shard) = SEEN.get((f % 16) as usize) else { return };
     if let Ok(mut s) = shard.lock() {
-        s.get_or_insert_with(HashMap::new).entry(class(n)).or_default().insert(f);
+        let (classes, levels) = s.get_or_insert_with(Default::default);
+        if classes.entry(class(n)).or_default().insert(f) {
+            *levels.entry((n.ticks, format!("{:?}", n.k.state()))).or_default() += 1;
+        }
     }
 }
 
-/// Prints the census (unique states per kernel state, then the `top`
-/// largest classes) and forgets it.
+/// Prints the census (the states first reached after each number of ticks,
+/// unique states per kernel state, then the `top` largest classes) and
+/// forgets it.
 pub(crate) fn report(name: &str, cfg: &str, top: usize) {
     let mut classes: BTreeMap<String, usize> = BTreeMap::new();
+    let mut levels: BTreeMap<u32, BTreeMap<String, usize>> = BTreeMap::new();
     for shard in &SEEN {
         if let Ok(mut s) = shard.lock() {
-            for (c, set) in s.take().unwrap_or_default() {
+            let (shard_classes, shard_levels) = s.take().unwrap_or_default();
+            for (c, set) in shard_classes {
                 *classes.entry(c).or_default() += set.len();
             }
+            for ((t, state), n) in shard_levels {
+                *levels.entry(t).or_default().entry(state).or_default() += n;
+            }
         }
+    }
+    // Where the exploration still grows: the states first reached after
+    // each number of ticks, by kernel state.
+    for (t, by) in &levels {
+        println!("census {name} {cfg}: first reached after {t:>3} ticks: {by:?}");
     }
     let mut by_state: BTreeMap<&str, usize> = BTreeMap::new();
     for (c, n) in &classes {

@@ -16,7 +16,8 @@
 //! is for the mutation tests (`mutants.sh`): it stops at, and succeeds only
 //! on, a violation of a property whose name contains NAME.
 //! `--census` prints how many unique states each kernel state, homed mask
-//! and tuple of homing phases holds (`census`).
+//! and tuple of homing phases holds, and how many states, by kernel state,
+//! were first reached after each number of ticks from power-on (`census`).
 //!
 //! Properties: each transition check (`checks!`) and each state property is
 //! a property of its own, named by the requirements it checks (`SR-5: a

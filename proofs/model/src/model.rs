@@ -85,6 +85,7 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             j1: J1 { seen: false, reference: 0, run: 0 },
             ramp: None,
             group_waited: false,
+            ticks: 0,
         }]
     }
 

@@ -33,6 +33,11 @@ pub(crate) struct St<S: Scalar> {
     /// a sibling still moving (for reachability only: the kernel's future
     /// does not depend on it).
     pub(crate) group_waited: bool,
+    /// Ticks from power-on on the path that reached this state (for the
+    /// census only: not part of the state's identity, so a state keeps the
+    /// count of the path that reached it first, the shortest under
+    /// `--depth`'s one-thread breadth-first search).
+    pub(crate) ticks: u32,
 }
 
 impl<S: ModelScalar> St<S> {

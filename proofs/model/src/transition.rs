@@ -270,6 +270,7 @@ impl<S: ModelScalar> Supervisor<S> {
         }
         n.violated |= c.violated;
         n.ever_enabled |= enabled;
+        n.ticks = s.ticks.saturating_add(1);
         c.record();
         crate::census::note(&n);
         n
