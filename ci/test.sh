@@ -95,10 +95,14 @@ if [ "${QUICK:-0}" != "1" ]; then
     # every 'sometimes' property); the reduced configurations (Kernel<Fx>
     # small and homing, Kernel<f32> tiny) run to completion (model-checked).
     # Any property violated in an explored state fails the step. The
-    # mutants: one per model-checked requirement.
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full to depth 44 (every 42-tick path), small, homing and tiny to completion; 18 kernel mutants)"
+    # mutants: one per model-checked requirement. Then the homing group's
+    # coupling lemma on every reachable state of the homing configuration
+    # (a second run of it; it records no evidence, so model.tsv stays the
+    # first command's).
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full to depth 44 (every 42-tick path), small, homing and tiny to completion; 18 kernel mutants; the homing group's coupling lemma)"
     cargo run -p model --release --locked -- --depth 44
     proofs/model/mutants.sh
+    env -u EVIDENCE_DIR cargo run -p model --release --locked -- --config homing --coupling
 
     step "parser: integer decimal conversion equals the reference parser (every mantissa per field; protocol/tests/decimal_exhaustive.rs)"
     cargo test -p protocol --release --locked --test decimal_exhaustive -- --ignored --nocapture

@@ -25,52 +25,18 @@
 //! evidence: it holds on the runs drawn, not on every reachable state.
 
 use crate::config::HOMING_MODEL_CONFIG;
-use kernel::config::{Validated, AXES, HOMING_GROUPS};
+use crate::coupling::{active_group, axis_texts, faulted};
+use kernel::config::{Validated, AXES};
 use kernel::homing::Phase;
-use kernel::{Event, Fx, Kernel, Request, State, TickOutput};
+use kernel::{Fx, Kernel, Request, State, TickOutput};
 use proofs::setup::{new_kernel, still};
 use proptest::prelude::*;
 use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
 use std::collections::HashMap;
 
-/// The `Debug` text of axis `i`'s state (the `i`-th `Axis { .. }` of the
-/// kernel's per-axis array).
 fn axis_text(k: &Kernel<Fx>, i: usize) -> String {
-    let text = format!("{k:?}");
-    let Some(start) = text.find("axes: [Axis {") else { panic!("no per-axis state in the kernel's Debug text") };
-    let rest = &text[start + "axes: [".len()..];
-    let (mut depth, mut from, mut found) = (0usize, 0usize, Vec::new());
-    for (n, c) in rest.char_indices() {
-        match c {
-            '{' | '[' | '(' => {
-                if depth == 0 {
-                    from = n;
-                }
-                depth += 1;
-            }
-            '}' | ']' | ')' => {
-                if depth == 0 {
-                    break;
-                }
-                depth -= 1;
-                if depth == 0 && c == '}' {
-                    found.push(&rest[from..=n]);
-                }
-            }
-            _ => {}
-        }
-    }
-    assert_eq!(found.len(), AXES, "the per-axis array did not parse");
-    found[i].to_string()
-}
-
-/// The group being homed: the one with an axis in a moving phase.
-fn active_group(phases: &[Phase; AXES]) -> Option<u8> {
-    HOMING_GROUPS.into_iter().find(|g| (0..AXES).any(|i| g & (1 << i) != 0 && phases[i].is_moving()))
-}
-
-fn faulted(o: &TickOutput<Fx>) -> bool {
-    o.events.iter().any(|e| matches!(e, Event::Fault(_)))
+    let texts = axis_texts(k).expect("the kernel's Debug text has a per-axis array");
+    texts[i].clone()
 }
 
 /// What the lemma compares of axis `i` after a tick.

@@ -2,7 +2,7 @@
 //! over the real `kernel::Kernel` (`cargo run -p model --release`).
 //!
 //! ```text
-//! model [--variant fx|f32] [--config full|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census]
+//! model [--variant fx|f32] [--config full|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census] [--coupling]
 //! ```
 //!
 //! With no arguments: the full configuration over `Kernel<Fx>` (bounded by
@@ -18,6 +18,9 @@
 //! `--census` prints how many unique states each kernel state, homed mask
 //! and tuple of homing phases holds, and how many states, by kernel state,
 //! were first reached after each number of ticks from power-on (`census`).
+//! `--coupling` checks the homing group's coupling lemma on every explored
+//! transition without a request or perturbation and fails unless it held
+//! on every one and the run finished (`coupling`).
 //!
 //! Properties: each transition check (`checks!`) and each state property is
 //! a property of its own, named by the requirements it checks (`SR-5: a
@@ -137,6 +140,7 @@
 mod census;
 mod checks;
 mod config;
+mod coupling;
 #[cfg(test)]
 mod coupling_tests;
 mod environment;
@@ -160,6 +164,9 @@ fn main() {
     let expect = arg("--expect-violation");
     // `--census`: print where the explored states lie (`census`).
     census::ON.store(args.iter().any(|a| a == "--census"), std::sync::atomic::Ordering::Relaxed);
+    // `--coupling`: check the homing group's coupling lemma on every
+    // transition without a request or perturbation (`coupling`).
+    coupling::ON.store(args.iter().any(|a| a == "--coupling"), std::sync::atomic::Ordering::Relaxed);
     // `--bounded S`: explore breadth first for at most S seconds and report
     // a bounded exploration (sampled evidence) if it does not finish.
     // Only the full configuration is bounded: the reduced ones (small,
@@ -201,6 +208,10 @@ fn main() {
             }
         };
         let name = if variant == "fx" { "Kernel<Fx>" } else { "Kernel<f32>" };
+        if coupling::ON.load(std::sync::atomic::Ordering::Relaxed) && !r.exhaustive {
+            println!("model: the coupling lemma was not checked on every reachable state (the run did not finish)");
+            std::process::exit(1);
+        }
         println!(
             "{} {name}, {cfg} configuration: {} states ({} unique), max depth {}, {:.1} s",
             if r.exhaustive { "model-checked" } else { "explored (bounded, sampled evidence)" },

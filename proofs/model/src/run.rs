@@ -81,6 +81,12 @@ pub(crate) fn run<S: ModelScalar>(
     if crate::census::ON.load(Ordering::Relaxed) {
         crate::census::report(S::NAME, cfg, 30);
     }
+    // (Before the properties' verdict, so that a kernel that fails the
+    // lemma and a property too still reports the lemma.)
+    if crate::coupling::ON.load(Ordering::Relaxed) && !crate::coupling::report(cfg) {
+        println!("model: the homing group's coupling lemma failed or was never exercised");
+        std::process::exit(1);
+    }
     let secs = started.elapsed().as_secs_f64();
     // (stateright records a state's depth before skipping it at the bound,
     // so a maximum depth at the bound means some state was not expanded.)

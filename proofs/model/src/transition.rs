@@ -3,7 +3,7 @@
 
 use crate::checks::{Check, Checks};
 use crate::config::MODEL_CONFIG;
-use crate::environment::{Action, Req};
+use crate::environment::{Action, Perturb, Req};
 use crate::identity::ModelScalar;
 use crate::model::Supervisor;
 use crate::state::{St, J1};
@@ -108,6 +108,13 @@ impl<S: ModelScalar> Supervisor<S> {
         let before = s.k.state();
         let sense = self.sense(perturb, pressed);
         let o = n.k.tick(&sense, req.map(|r| self.request(r)));
+        if before == State::Homing
+            && req.is_none()
+            && perturb == Perturb::None
+            && crate::coupling::ON.load(std::sync::atomic::Ordering::Relaxed)
+        {
+            crate::coupling::check(self, &s.k, pressed, &n.k, &o);
+        }
         // A switch is a cause on a joint homed after the tick only (SR-6,
         // SR-10: an unhomed joint's switch is its homing input, and an
         // enable unhomes a joint whose encoder count was lost).
