@@ -19,11 +19,37 @@ both!(
     a_go_to_set_point_never_passes_its_target,
     a_go_to_onto_the_moving_set_point_brakes_within_the_acceleration_limit,
     a_set_point_a_rounding_short_of_its_target_lands_on_it_not_past,
+    a_held_set_point_is_unchanged_by_a_tick,
     a_go_to_accepted_in_the_tick_the_link_is_lost_stops_at_once,
     acceleration_is_limited_in_operational,
     tracking_at_100_hz,
     dropped_packet_does_not_stretch_motion,
 );
+
+/// A set-point held at a position (`Interpolator::hold`, what every
+/// re-synchronisation leaves: `<ENABLE>`, the start of a homing run, the
+/// end of its settle wait) is a fixed point of a tick's step: the same
+/// set-point, target, velocity zero and interval, on every joint's profile
+/// and at positions across the plausible range, both signs and zero. The
+/// soft stop of a homing run ended by a lost link does not advance the
+/// set-points; this is why advancing them there would change nothing.
+fn a_held_set_point_is_unchanged_by_a_tick<S: Scalar>() {
+    use kernel::interp::{joint_profile, Interpolator};
+    let mut positions = vec![0.0f32, -0.0, 1e-6, -1e-6, 0.25, -1.72, 3.14159, -31.9, 31.9];
+    positions.extend((0..200).map(|i| -30.0 + 0.3 * i as f32 + 1e-3 * (i % 7) as f32));
+    for (j, jc) in PAROL6.joints.iter().enumerate() {
+        let k = joint_profile::<S>(jc, PAROL6.tick_hz);
+        for &x in &positions {
+            let held = Interpolator::hold(S::from_f32(x));
+            let mut it = held;
+            for n in 0..3 {
+                let (sp, vel) = it.advance(&k);
+                assert_eq!(it, held, "J{} at {x}: tick {n} changed a held set-point", j + 1);
+                assert_eq!((sp, vel), (held.setpoint(), S::ZERO), "J{} at {x}", j + 1);
+            }
+        }
+    }
+}
 
 /// C++ defect 1 (docs/spec/robot.md section 6): the first encoder read returned 0 and each joint drove
 /// toward it.
