@@ -35,7 +35,11 @@
 # (k/n: only that shard, every n-th mutant from the k-th, for splitting one
 # run across invocations; give every shard the same MUTANTS_REV and its own
 # MUTANTS_OUT), MUTANTS_SRC (scratch directory, default a fresh mktemp -d),
-# MUTANTS_REV (the commit to mutate, default HEAD), MUTANTS_ARGS (further
+# MUTANTS_REV (the commit to mutate, default HEAD), MUTANTS_TEST_PACKAGES
+# (the packages whose tests judge each mutant, default `kernel`; the number
+# types and the configuration, `scalar.rs`, `config.rs`, `types.rs`, are
+# also exercised by `protocol`'s tests: the decimal text of every report,
+# the parser's numbers, so their run uses "kernel protocol"), MUTANTS_ARGS (further
 # cargo-mutants arguments, e.g. `--re PATTERN` or `--iterate`). A file the
 # commit does not have is skipped.
 set -euo pipefail
@@ -125,6 +129,8 @@ debug = 0
 opt-level = 1
 [profile.dev.package.fixed]
 opt-level = 1
+[profile.dev.package.protocol]
+opt-level = 1
 EOF
 
 args=()
@@ -139,7 +145,8 @@ done
 # --features proof-states: `Kernel::from_spec` (proof-only code in
 # invariant.rs) and its tests (kernel/tests/from_spec.rs, boundaries.rs).
 # The baseline (the unmutated tree builds and passes) runs first.
-(cd "$src" && nice -n "${MUTANTS_NICE:-15}" cargo mutants -p kernel --test-package kernel --features proof-states \
+tests=$(echo "${MUTANTS_TEST_PACKAGES:-kernel}" | tr -s ' ' ',')
+(cd "$src" && nice -n "${MUTANTS_NICE:-15}" cargo mutants -p kernel --test-package "$tests" --features proof-states \
     --no-shuffle --jobs "${MUTANTS_JOBS:-2}" --timeout "${MUTANTS_TIMEOUT:-20}" --build-timeout 600 \
     --output "$OUT" "${args[@]}") || { rc=$?; [ "$rc" -eq 2 ] || [ "$rc" -eq 3 ]; }
 summary
