@@ -35,7 +35,7 @@ both!(
 /// set-points; this is why advancing them there would change nothing.
 fn a_held_set_point_is_unchanged_by_a_tick<S: Scalar>() {
     use kernel::interp::{joint_profile, Interpolator};
-    let mut positions = vec![0.0f32, -0.0, 1e-6, -1e-6, 0.25, -1.72, 3.14159, -31.9, 31.9];
+    let mut positions = vec![0.0f32, -0.0, 1e-6, -1e-6, 0.25, -1.72, std::f32::consts::PI, -31.9, 31.9];
     positions.extend((0..200).map(|i| -30.0 + 0.3 * i as f32 + 1e-3 * (i % 7) as f32));
     for (j, jc) in PAROL6.joints.iter().enumerate() {
         let k = joint_profile::<S>(jc, PAROL6.tick_hz);

@@ -88,3 +88,27 @@ fn f32_from_decimal_beyond_the_fast_path_equals_the_text_parser() {
     assert_eq!(<f32 as Scalar>::from_decimal(false, 12, max + 1), None, "a small mantissa with too many decimals");
     assert_eq!(n, mantissas.len() * (max as usize + 1) * 2);
 }
+
+/// The fixed-point wide constant (`FxWide`, 48 fraction bits: the per-count
+/// and per-step factors derived at start-up) rounds to the nearest, halves
+/// away from zero, on both sides of zero: exact halves, values just beside
+/// them, and the PAROL6's own factors.
+#[test]
+fn fx_wide_from_f64_rounds_to_nearest_on_both_sides() {
+    use kernel::scalar::FxWide;
+    use kernel::{Fx, Scalar};
+    let one = (1u64 << 48) as f64;
+    let lsb = 1.0 / one;
+    let mut xs = vec![0.0, 1.0, 0.5, 3.0e-4, 2.0 * std::f64::consts::PI / 16384.0, 1.0 / 3.0, 123.456];
+    for k in [1.0f64, 3.0, 1023.0, 4.0e6] {
+        xs.push((k + 0.5) * lsb);
+        xs.push((k + 0.25) * lsb);
+        xs.push((k + 0.75) * lsb);
+    }
+    for &x in &xs {
+        for x in [x, -x] {
+            let want = (x * one).round() as i64;
+            assert_eq!(<Fx as Scalar>::wide_from_f64(x), FxWide(want), "{x:e}");
+        }
+    }
+}

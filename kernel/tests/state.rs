@@ -51,3 +51,43 @@ fn the_status_reports_the_six_joints_limit_bits_as_sensed() {
         assert_eq!(k.status(sensed).limits, reported, "sensed {sensed:#04x}");
     }
 }
+
+/// The events of a tick replace the last tick's in the caller's buffer:
+/// `Kernel::tick_into` clears it first, and `len`, `is_empty` and `iter`
+/// agree. Boot's first tick reports `Ready`; the next, quiet, tick none;
+/// `<HOME>` then `HomingStarted`. No event is ever dropped (one per source
+/// per tick fits the buffer).
+#[test]
+fn a_tick_s_events_replace_the_last_tick_s() {
+    use kernel::{Actuation, Event, Events};
+    let (mut k, _auth) = Kernel::<Fx>::new(&PAROL6_VALIDATED);
+    let r = Rig::<Fx>::new(START);
+    let sense = r.plant.sense();
+    let mut events = Events::new();
+    let mut act = Actuation::<Fx>::zero();
+    let mut tick = |k: &mut Kernel<Fx>, req: Option<kernel::Request<Fx>>, events: &mut Events| {
+        k.tick_into(&sense, req, &mut act, events);
+        assert_eq!(events.len(), events.iter().count());
+        assert_eq!(events.is_empty(), events.iter().next().is_none());
+        assert_eq!(events.dropped(), 0);
+    };
+    tick(&mut k, None, &mut events);
+    assert_eq!(events.iter().copied().collect::<Vec<_>>(), vec![Event::Ready]);
+    assert_eq!(events.len(), 1);
+    assert!(!events.is_empty());
+    tick(&mut k, None, &mut events);
+    assert!(events.is_empty(), "the last tick's events are still there: {events:?}");
+    assert_eq!(events.len(), 0);
+    tick(&mut k, Some(kernel::Request::Home), &mut events);
+    assert!(events.iter().any(|e| matches!(e, Event::HomingStarted { .. })), "{events:?}");
+}
+
+/// The digit of the `H<d>` status token: 0 not requested, 1 in progress,
+/// 2 complete, 3 failed.
+#[test]
+fn homing_status_digits() {
+    use kernel::HomingStatus;
+    let digits = [HomingStatus::NotRequested, HomingStatus::InProgress, HomingStatus::Complete, HomingStatus::Failed]
+        .map(HomingStatus::as_u8);
+    assert_eq!(digits, [0, 1, 2, 3]);
+}
