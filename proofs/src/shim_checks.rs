@@ -193,6 +193,21 @@ fn a_harness_beyond_its_stated_footprint_fails() {
     assert!(e.contains("runs a tick beyond the 1"), "{e}");
 }
 
+/// Every harness source file of `dir` (`proofs/src` but this file), with
+/// its text: what the source scans below read.
+fn harness_sources(dir: &std::path::Path) -> Vec<(std::path::PathBuf, String)> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).expect("harness sources") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|x| x != "rs") || path.ends_with("shim_checks.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("harness source");
+        files.push((path, text));
+    }
+    files
+}
+
 /// Every `kani::cover!` in the harness sources is written in a function
 /// the shim instruments (`#[kani::proof]` or `kani::loops`), so that it is
 /// declared, hence required, whenever its function is entered, also when
@@ -205,12 +220,7 @@ fn every_cover_is_in_an_instrumented_function() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut covers = 0;
     let mut bare = Vec::new();
-    for entry in std::fs::read_dir(&dir).expect("harness sources") {
-        let path = entry.expect("entry").path();
-        if path.extension().is_none_or(|x| x != "rs") || path.ends_with("shim_checks.rs") {
-            continue;
-        }
-        let text = std::fs::read_to_string(&path).expect("harness source");
+    for (path, text) in harness_sources(&dir) {
         let lines: Vec<&str> = text.lines().collect();
         // The attributes of the function each line is in.
         let mut instrumented = false;
@@ -249,12 +259,7 @@ fn every_cover_is_in_an_instrumented_function() {
 fn every_assume_is_paired_with_a_cover() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let (mut assumes, mut unpaired) = (0, Vec::new());
-    for entry in std::fs::read_dir(&dir).expect("harness sources") {
-        let path = entry.expect("entry").path();
-        if path.extension().is_none_or(|x| x != "rs") || path.ends_with("shim_checks.rs") {
-            continue;
-        }
-        let text = std::fs::read_to_string(&path).expect("harness source");
+    for (path, text) in harness_sources(&dir) {
         let lines: Vec<&str> = text.lines().collect();
         for (n, line) in lines.iter().enumerate() {
             let t = line.trim_start();
