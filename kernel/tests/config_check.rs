@@ -224,6 +224,12 @@ fn cases() -> Vec<Case> {
             expect: LANDING,
         },
         Case { what: "homing timeout too short", edit: |c| j(c, 0).homing.timeout_ms = 2_000, expect: HOMING_TIMEOUT },
+        // ---- an infinity, where the range test alone would let it through ----
+        Case { what: "deadband +inf", edit: |c| c.deadband = f32::INFINITY, expect: DEADBAND },
+        Case { what: "runaway threshold +inf", edit: |c| j(c, 0).runaway_velocity = f32::INFINITY, expect: RUNAWAY },
+        Case { what: "lower limit -inf", edit: |c| j(c, 0).limit_min = f32::NEG_INFINITY, expect: LIMITS },
+        Case { what: "upper limit +inf", edit: |c| j(c, 0).limit_max = f32::INFINITY, expect: LIMITS },
+        Case { what: "homing fast speed +inf", edit: |c| j(c, 0).homing.fast_speed = f32::INFINITY, expect: SPEEDS },
     ]
 }
 
@@ -356,4 +362,469 @@ fn every_joint_is_checked() {
         j(&mut c, i).kp = 0.0;
         assert_eq!(check(&c), Err(KP), "J{} not checked", i + 1);
     }
+}
+
+/// One bound of a rule: a configuration exactly on it, and one just past
+/// it. `check` names the first broken rule, so the configuration on the
+/// bound must pass the rule under test: `at_expect` is `Ok` or the message
+/// of a rule `check` tests after it (named where the bound breaks a later
+/// rule); the one past it must be refused by the rule itself. A bound whose
+/// strictness changed (`<` for `<=`, `>` for `>=`) fails one of the two.
+struct Edge {
+    what: &'static str,
+    at: fn(&mut ArmConfig),
+    at_expect: Result<(), &'static str>,
+    past: fn(&mut ArmConfig),
+    past_expect: &'static str,
+}
+
+/// The fast seek's travel bound of joint `i` as the rule states it: the
+/// range plus the switch's distance beyond the limit it lies past (f32,
+/// in the rule's order of operations).
+fn travel_need(c: &ArmConfig, i: usize) -> f32 {
+    let jc = c.joints[i];
+    let s = jc.homing.switch_position;
+    let beyond = if s > jc.limit_max {
+        s - jc.limit_max
+    } else if s < jc.limit_min {
+        jc.limit_min - s
+    } else {
+        0.0
+    };
+    jc.limit_max - jc.limit_min + beyond
+}
+
+/// Where joint `i`'s homing release ends, as the rule states it: the
+/// switch, then back against the seek direction by the back-off and the
+/// braking distance from the fast speed, `v^2 / 2a`.
+fn landing(c: &ArmConfig, i: usize) -> f32 {
+    let jc = c.joints[i];
+    let h = jc.homing;
+    let sign = match h.direction {
+        Direction::Positive => 1.0,
+        Direction::Negative => -1.0,
+    };
+    h.switch_position - sign * (h.backoff + h.fast_speed * h.fast_speed / (2.0 * jc.max_acceleration))
+}
+
+/// J1 with its upper limit at `limit` (below the switch's side, J1 seeks
+/// negative) and its fast-seek travel re-sized to the new range.
+fn j1_upper_limit(c: &mut ArmConfig, limit: f32) {
+    j(c, 0).limit_max = limit;
+    j(c, 0).homing.max_travel = travel_need(c, 0) + 0.1;
+}
+
+/// J3 (seeks positive) with its lower limit at `limit`, travel re-sized.
+fn j3_lower_limit(c: &mut ArmConfig, limit: f32) {
+    j(c, 2).limit_min = limit;
+    j(c, 2).homing.max_travel = travel_need(c, 2) + 0.1;
+}
+
+/// J1 with a slow seek as fast as its fast seek (0.5 rad/s) and
+/// 50 rad/s^2: its nominal homing time is 3.4 / 0.5 + 4 x 0.05 / 0.5 +
+/// 2 x 0.05 / 0.5 + 4 x 0.5 / 50 = 7.44 s, plus the 50 ms settle:
+/// 7 490 ms, and 1.2 times that is 8 988 ms (both exact in f32).
+fn j1_homing_8988(c: &mut ArmConfig) {
+    j(c, 0).homing.slow_speed = 0.5;
+    j(c, 0).max_acceleration = 50.0;
+}
+
+/// The acceleration at which J1's soft-stop rule is an equality in f32:
+/// `3 rad/s x 1000 = a x 100 ms x 1.0001`.
+const J1_SOFT_STOP_EDGE: f32 = 29.997;
+
+fn edges() -> Vec<Edge> {
+    vec![
+        // ---- the arm ----
+        Edge {
+            what: "tick rate 100 Hz (observer gains scaled to alpha 0.1, beta 0.005)",
+            at: |c| {
+                c.tick_hz = 100;
+                c.observer_position_gain = 10.0;
+                c.observer_velocity_gain = 50.0;
+            },
+            // At 100 Hz a tick of J3's runaway motion spans more than a
+            // quarter turn of its encoder: the next rule that can refuse.
+            at_expect: Err(WINDOW),
+            past: |c| {
+                c.tick_hz = 99;
+                c.observer_position_gain = 9.9;
+                c.observer_velocity_gain = 49.0;
+            },
+            past_expect: TICK,
+        },
+        Edge {
+            what: "tick rate 10 kHz (gains scaled, longest segment 25 ms = 250 ticks)",
+            at: |c| {
+                c.tick_hz = 10_000;
+                c.observer_position_gain = 1000.0;
+                c.observer_velocity_gain = 500_000.0;
+                c.segment_max_ms = 25;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                c.tick_hz = 10_001;
+                c.observer_position_gain = 1000.0;
+                c.observer_velocity_gain = 500_000.0;
+                c.segment_max_ms = 25;
+            },
+            past_expect: TICK,
+        },
+        Edge {
+            what: "observer beta 0.05 % above alpha^2 / (2 - alpha) (within the 0.1 % rounding allowance)",
+            at: |c| c.observer_velocity_gain = 0.01 / 1.9 * 1.0005 * 1e6,
+            at_expect: Ok(()),
+            past: |c| c.observer_velocity_gain = 0.01 / 1.9 * 1.002 * 1e6,
+            past_expect: BETA,
+        },
+        Edge {
+            what: "soft-stop ramp of 100,000 ticks",
+            at: |c| {
+                c.soft_stop_ms = 100_000;
+                c.stop_budget_ms = 200_000;
+            },
+            // A 100 s ramp lets a stop overrun by far more than the margin.
+            at_expect: Err(OVERRUN),
+            past: |c| {
+                c.soft_stop_ms = 100_001;
+                c.stop_budget_ms = 200_000;
+            },
+            past_expect: RAMP,
+        },
+        Edge {
+            what: "shortest segment of one tick",
+            at: |c| c.segment_min_ms = 1,
+            at_expect: Ok(()),
+            past: |c| c.segment_min_ms = 0,
+            past_expect: SEGMENTS,
+        },
+        Edge {
+            what: "shortest segment equal to the longest (40 ms)",
+            at: |c| c.segment_min_ms = 40,
+            at_expect: Ok(()),
+            past: |c| c.segment_min_ms = 41,
+            past_expect: SEGMENTS,
+        },
+        Edge {
+            what: "longest segment of MAX_SEGMENT_TICKS (256 ms at 1 kHz)",
+            at: |c| {
+                c.segment_max_ms = 256;
+                c.command_timeout_ms = 300;
+                c.stop_budget_ms = 400;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                c.segment_max_ms = 257;
+                c.command_timeout_ms = 300;
+                c.stop_budget_ms = 400;
+            },
+            past_expect: SEGMENTS,
+        },
+        Edge {
+            what: "boot timeout of two ticks",
+            at: |c| c.boot_timeout_ms = 2,
+            at_expect: Ok(()),
+            past: |c| c.boot_timeout_ms = 1,
+            past_expect: BOOT,
+        },
+        Edge {
+            what: "coasting over 10 invalid samples",
+            at: |c| c.encoder_invalid_limit = 10,
+            // J3's window times 11 exceeds a quarter turn: the joint rule.
+            at_expect: Err(WINDOW),
+            past: |c| c.encoder_invalid_limit = 11,
+            past_expect: INVALID,
+        },
+        Edge {
+            what: "following error time of two ticks",
+            at: |c| c.following_error_ms = 2,
+            at_expect: Ok(()),
+            past: |c| c.following_error_ms = 1,
+            past_expect: FE_TIME,
+        },
+        Edge {
+            what: "following error time of 200 ms",
+            at: |c| c.following_error_ms = 200,
+            at_expect: Ok(()),
+            past: |c| c.following_error_ms = 201,
+            past_expect: FE_TIME,
+        },
+        Edge {
+            what: "homing settle time of 1 s (every homing timeout 20 s)",
+            at: |c| {
+                c.homing_settle_ms = 1000;
+                c.joints.iter_mut().for_each(|jc| jc.homing.timeout_ms = 20_000);
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                c.homing_settle_ms = 1001;
+                c.joints.iter_mut().for_each(|jc| jc.homing.timeout_ms = 20_000);
+            },
+            past_expect: SETTLE,
+        },
+        Edge {
+            // The groups' slowest joints: J6 12 s; J4, J5 10 s; J1-J3 12 s;
+            // plus the 50 ms settle: 34 050 ms.
+            what: "homing budget equal to the sum of the groups' slowest timeouts plus the settle",
+            at: |c| c.homing_budget_ms = 34_050,
+            at_expect: Ok(()),
+            past: |c| c.homing_budget_ms = 34_049,
+            past_expect: HOMING_TIME,
+        },
+        Edge {
+            what: "homing budget of 90 s",
+            at: |c| c.homing_budget_ms = 90_000,
+            at_expect: Ok(()),
+            past: |c| c.homing_budget_ms = 90_001,
+            past_expect: HOMING_90,
+        },
+        // ---- a joint (J1 unless stated) ----
+        Edge {
+            what: "256 microsteps (gear 1, so steps per rad stay below 32 000)",
+            at: |c| {
+                j(c, 0).gear_ratio = 1.0;
+                j(c, 0).microsteps = 256;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                j(c, 0).gear_ratio = 1.0;
+                j(c, 0).microsteps = 512;
+            },
+            past_expect: MICRO,
+        },
+        Edge {
+            what: "runaway threshold of 32 rad/s (gear 1, so the encoder window stays narrow)",
+            at: |c| {
+                j(c, 0).gear_ratio = 1.0;
+                j(c, 0).runaway_velocity = 32.0;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                j(c, 0).gear_ratio = 1.0;
+                j(c, 0).runaway_velocity = 32.0f32.next_up();
+            },
+            past_expect: RUNAWAY_HIGH,
+        },
+        Edge {
+            what: "soft-stop ramp decelerating exactly at max acceleration (times the 1.0001 allowance)",
+            at: |c| j(c, 0).max_acceleration = J1_SOFT_STOP_EDGE,
+            at_expect: Ok(()),
+            past: |c| j(c, 0).max_acceleration = J1_SOFT_STOP_EDGE.next_down(),
+            past_expect: SOFT_DECEL,
+        },
+        Edge {
+            what: "lower limit at -(POSITION_ABS_MAX - 2) = -30 rad",
+            at: |c| j(c, 0).limit_min = -30.0,
+            // The range is now 31.7 rad: the fast seek's travel bound no
+            // longer covers it, the next rule.
+            at_expect: Err(TRAVEL),
+            past: |c| j(c, 0).limit_min = (-30.0f32).next_down(),
+            past_expect: LIMITS_RANGE,
+        },
+        Edge {
+            what: "upper limit at POSITION_ABS_MAX - 2 = 30 rad",
+            at: |c| j(c, 0).limit_max = 30.0,
+            at_expect: Err(TRAVEL),
+            past: |c| j(c, 0).limit_max = 30.0f32.next_up(),
+            past_expect: LIMITS_RANGE,
+        },
+        Edge {
+            what: "homing fast speed equal to max velocity (3 rad/s)",
+            at: |c| j(c, 0).homing.fast_speed = 3.0,
+            at_expect: Ok(()),
+            past: |c| j(c, 0).homing.fast_speed = 3.0f32.next_up(),
+            past_expect: FAST,
+        },
+        Edge {
+            what: "fast-seek travel exactly range + switch distance (J1, switch below the lower limit)",
+            at: |c| j(c, 0).homing.max_travel = travel_need(c, 0),
+            at_expect: Ok(()),
+            past: |c| j(c, 0).homing.max_travel = travel_need(c, 0).next_down(),
+            past_expect: TRAVEL,
+        },
+        Edge {
+            what: "fast-seek travel exactly range + switch distance + 0.25 rad (J1)",
+            at: |c| j(c, 0).homing.max_travel = travel_need(c, 0) + 0.25,
+            at_expect: Ok(()),
+            past: |c| j(c, 0).homing.max_travel = (travel_need(c, 0) + 0.25).next_up(),
+            past_expect: TRAVEL,
+        },
+        Edge {
+            what: "fast-seek travel exactly range + switch distance (J3, switch above the upper limit)",
+            at: |c| j(c, 2).homing.max_travel = travel_need(c, 2),
+            at_expect: Ok(()),
+            past: |c| j(c, 2).homing.max_travel = travel_need(c, 2).next_down(),
+            past_expect: TRAVEL,
+        },
+        Edge {
+            what: "fast-seek travel exactly range + switch distance + 0.25 rad (J3)",
+            at: |c| j(c, 2).homing.max_travel = travel_need(c, 2) + 0.25,
+            at_expect: Ok(()),
+            past: |c| j(c, 2).homing.max_travel = (travel_need(c, 2) + 0.25).next_up(),
+            past_expect: TRAVEL,
+        },
+        Edge {
+            what: "homing release ending exactly on the upper limit (J1 seeks negative)",
+            at: |c| j1_upper_limit(c, landing(c, 0)),
+            at_expect: Ok(()),
+            past: |c| j1_upper_limit(c, landing(c, 0).next_down()),
+            past_expect: LANDING,
+        },
+        Edge {
+            what: "homing release ending exactly on the lower limit (J3 seeks positive)",
+            at: |c| j3_lower_limit(c, landing(c, 2)),
+            at_expect: Ok(()),
+            past: |c| j3_lower_limit(c, landing(c, 2).next_up()),
+            past_expect: LANDING,
+        },
+        Edge {
+            what: "homing timeout exactly 1.2 x the nominal homing time (8 988 ms)",
+            at: |c| {
+                j1_homing_8988(c);
+                j(c, 0).homing.timeout_ms = 8_988;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                j1_homing_8988(c);
+                j(c, 0).homing.timeout_ms = 8_987;
+            },
+            past_expect: HOMING_TIMEOUT,
+        },
+    ]
+}
+
+/// Every bound `check` enforces, on the bound and just past it (`Edge`).
+/// Catches: a bound whose strictness changed, a bound moved (a tolerance
+/// divided instead of multiplied, a term's sign), a group's slowest joint
+/// taken from the wrong joints in the homing budget.
+#[test]
+fn every_bound_passes_on_itself_and_refuses_just_past() {
+    // The boundary values are exact where the rule compares f32 products.
+    assert_eq!(3.0f32 * 1000.0, J1_SOFT_STOP_EDGE * 100.0 * 1.0001);
+    let mut wrong = Vec::new();
+    for e in edges() {
+        let mut c = PAROL6;
+        (e.at)(&mut c);
+        let got = check(&c);
+        if got != e.at_expect {
+            wrong.push(format!("{} (on the bound): expected {:?}, got {:?}", e.what, e.at_expect, got));
+        }
+        let mut c = PAROL6;
+        (e.past)(&mut c);
+        let got = check(&c);
+        if got != Err(e.past_expect) {
+            wrong.push(format!("{} (past the bound): expected Err({:?}), got {:?}", e.what, e.past_expect, got));
+        }
+    }
+    assert!(wrong.is_empty(), "{} bound(s) wrong:\n{}", wrong.len(), wrong.join("\n"));
+}
+
+/// The homing budget takes each group's slowest joint: with J1 at 20 s
+/// (group J1-J3) the sum is 12 + 10 + 20 s plus the 50 ms settle, and
+/// J4 at 11 s (group J4, J5) adds one second more. A group that took
+/// another group's joints, or every joint, or the last joint instead of the
+/// slowest, gives another sum.
+#[test]
+fn the_homing_budget_sums_each_group_s_slowest_timeout() {
+    let mut c = PAROL6;
+    j(&mut c, 0).homing.timeout_ms = 20_000;
+    c.homing_budget_ms = 42_050;
+    assert_eq!(check(&c), Ok(()));
+    c.homing_budget_ms = 42_049;
+    assert_eq!(check(&c), Err(HOMING_TIME));
+    j(&mut c, 3).homing.timeout_ms = 11_000;
+    c.homing_budget_ms = 43_050;
+    assert_eq!(check(&c), Ok(()));
+    c.homing_budget_ms = 43_049;
+    assert_eq!(check(&c), Err(HOMING_TIME));
+}
+
+/// A joint with stated values, for the derived quantities below.
+fn stated_joint(max_acceleration: f32, fast_speed: f32, slow_speed: f32, backoff: f32) -> JointConfig {
+    let mut jc = PAROL6.joints[0];
+    jc.max_acceleration = max_acceleration;
+    jc.homing.fast_speed = fast_speed;
+    jc.homing.slow_speed = slow_speed;
+    jc.homing.backoff = backoff;
+    jc
+}
+
+fn close(got: f32, want: f64, tol: f64) -> bool {
+    (f64::from(got) - want).abs() <= tol
+}
+
+/// `homing_nominal_ms`: the fast seek over the range, back-off and release
+/// at the fast speed (four back-offs), the slow seek over two back-offs,
+/// four ramps to or from the fast speed (`4 v_fast / a`), plus the settle
+/// time. J1's range 3.4 rad, fast 0.5, slow 0.1 rad/s, back-off 0.05 rad,
+/// 50 rad/s^2, settle 50 ms: 6.8 + 0.4 + 1.0 + 0.04 s = 8 290 ms. The
+/// shipped J1 (slow 0.05 rad/s, 30 rad/s^2): 6.8 + 0.4 + 2.0 + 0.0667 s
+/// + 50 ms = 9 316.67 ms.
+#[test]
+fn the_nominal_homing_time_is_seeks_back_offs_ramps_and_settle() {
+    let jc = stated_joint(50.0, 0.5, 0.1, 0.05);
+    let want = (3.4 / 0.5 + 4.0 * 0.05 / 0.5 + 2.0 * 0.05 / 0.1 + 4.0 * 0.5 / 50.0) * 1000.0 + 50.0;
+    assert!((want - 8290.0f64).abs() < 1e-9);
+    let got = jc.homing_nominal_ms(50);
+    assert!(close(got, want, 0.01), "{got} ms, expected {want} ms");
+    // Without the settle time: 50 ms less.
+    let got = jc.homing_nominal_ms(0);
+    assert!(close(got, want - 50.0, 0.01), "{got} ms, expected {} ms", want - 50.0);
+    let shipped = PAROL6.joints[0];
+    let want = (3.4 / 0.5 + 4.0 * 0.05 / 0.5 + 2.0 * 0.05 / 0.05 + 4.0 * 0.5 / 30.0) * 1000.0 + 50.0;
+    let got = shipped.homing_nominal_ms(PAROL6.homing_settle_ms);
+    assert!(close(got, want, 0.01), "{got} ms, expected {want} ms");
+}
+
+/// `braking_distance`: `v^2 / 2a`; at 3 rad/s and 15 rad/s^2, 0.3 rad, in
+/// either direction. `setpoint_braking_distance`: the same at the
+/// set-points' acceleration, 0.8 a = 12 rad/s^2: 0.375 rad. The shipped
+/// J1's fast seek (0.5 rad/s, 30 rad/s^2) brakes in 1/240 rad.
+#[test]
+fn braking_distances_are_v_squared_over_twice_the_acceleration() {
+    let jc = stated_joint(15.0, 0.5, 0.05, 0.05);
+    for v in [3.0f32, -3.0] {
+        assert!(close(jc.braking_distance(v), 0.3, 1e-6), "{}", jc.braking_distance(v));
+        assert!(close(jc.setpoint_braking_distance(v), 0.375, 1e-6), "{}", jc.setpoint_braking_distance(v));
+    }
+    assert!(close(jc.braking_distance(0.0), 0.0, 0.0));
+    let shipped = PAROL6.joints[0];
+    assert!(close(shipped.braking_distance(0.5), 1.0 / 240.0, 1e-7), "{}", shipped.braking_distance(0.5));
+}
+
+/// `homing_phase_travel`: a phase other than the fast seek may travel four
+/// back-offs and two braking distances from the fast speed. Back-off
+/// 0.05 rad, fast 3 rad/s, 15 rad/s^2: 0.2 + 2 x 0.3 = 0.8 rad; the shipped
+/// J1: 0.2 + 2/240 rad.
+#[test]
+fn a_homing_phase_travels_four_back_offs_and_two_braking_distances() {
+    let jc = stated_joint(15.0, 3.0, 0.05, 0.05);
+    assert!(close(jc.homing_phase_travel(), 0.8, 1e-6), "{}", jc.homing_phase_travel());
+    let shipped = PAROL6.joints[0];
+    assert!(close(shipped.homing_phase_travel(), 0.2 + 2.0 / 240.0, 1e-6), "{}", shipped.homing_phase_travel());
+}
+
+/// The shipped runaway thresholds are 1.25 times each joint's command
+/// clamp (the risk analysis's figure; `check` requires at least 1.1):
+/// 3.75 rad/s for J1 and J2, 7.5 rad/s for J3 to J6.
+#[test]
+fn the_shipped_runaway_thresholds_are_1_25_times_the_clamp() {
+    let want = [3.75f32, 3.75, 7.5, 7.5, 7.5, 7.5];
+    for (jc, w) in PAROL6.joints.iter().zip(want) {
+        assert_eq!(jc.runaway_velocity, w);
+        assert_eq!(jc.runaway_velocity, jc.max_velocity * 1.25);
+    }
+}
+
+/// The shipped fast seeks may travel the joint's range plus the switch's
+/// distance beyond its limit plus 0.1 rad (SAFETY.md SR-14), computed in
+/// f32 in that order: J1 3.52 rad, J6 12.686 rad.
+#[test]
+fn the_shipped_fast_seek_travel_is_range_plus_switch_distance_plus_0_1() {
+    for (i, jc) in PAROL6.joints.iter().enumerate() {
+        let want = travel_need(&PAROL6, i) + 0.1;
+        assert_eq!(jc.homing.max_travel, want, "J{}", i + 1);
+    }
+    assert!(close(PAROL6.joints[0].homing.max_travel, 3.52, 1e-6));
+    assert!(close(PAROL6.joints[5].homing.max_travel, 12.686, 1e-5));
 }
