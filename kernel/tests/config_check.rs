@@ -433,6 +433,27 @@ fn j1_homing_8988(c: &mut ArmConfig) {
 /// `3 rad/s x 1000 = a x 100 ms x 1.0001`.
 const J1_SOFT_STOP_EDGE: f32 = 29.997;
 
+/// J1 rebuilt so that its clamp needs a whole number of steps per second
+/// exactly (in the f64 arithmetic of the step-rate rule): 1 405 497 235
+/// full steps, one microstep, a gear of 0x3901a640 (about 1.236e-4) give
+/// exactly 27 658 steps per rad, and 4 rad/s of it exactly 110 632 steps/s
+/// (the other joints need at most J3's 110 590). A step rate limit of
+/// exactly that is the rule's bound. (Acceleration 40 rad/s^2 so the soft
+/// stop can stop 4 rad/s in 100 ms; runaway at 1.25 x the clamp.)
+fn j1_exact_step_rate(c: &mut ArmConfig) {
+    let jc = j(c, 0);
+    jc.full_steps_per_rev = J1_EXACT_FULL_STEPS;
+    jc.microsteps = 1;
+    jc.gear_ratio = f32::from_bits(J1_EXACT_GEAR_BITS);
+    jc.max_velocity = 4.0;
+    jc.runaway_velocity = 5.0;
+    jc.max_acceleration = 40.0;
+}
+
+const J1_EXACT_FULL_STEPS: u32 = 1_405_497_235;
+const J1_EXACT_GEAR_BITS: u32 = 0x3901_a640;
+const J1_EXACT_STEP_RATE: u32 = 110_632;
+
 fn edges() -> Vec<Edge> {
     vec![
         // ---- the arm ----
@@ -593,6 +614,19 @@ fn edges() -> Vec<Edge> {
             past_expect: MICRO,
         },
         Edge {
+            what: "step rate limit exactly what the clamp needs (110 632 steps/s, J1 rebuilt)",
+            at: |c| {
+                j1_exact_step_rate(c);
+                c.max_step_rate = J1_EXACT_STEP_RATE;
+            },
+            at_expect: Ok(()),
+            past: |c| {
+                j1_exact_step_rate(c);
+                c.max_step_rate = J1_EXACT_STEP_RATE - 1;
+            },
+            past_expect: STEP_RATE,
+        },
+        Edge {
             what: "runaway threshold of 32 rad/s (gear 1, so the encoder window stays narrow)",
             at: |c| {
                 j(c, 0).gear_ratio = 1.0;
@@ -701,6 +735,8 @@ fn edges() -> Vec<Edge> {
 fn every_bound_passes_on_itself_and_refuses_just_past() {
     // The boundary values are exact where the rule compares f32 products.
     assert_eq!(3.0f32 * 1000.0, J1_SOFT_STOP_EDGE * 100.0 * 1.0001);
+    let spr = f64::from(J1_EXACT_FULL_STEPS) * f64::from(f32::from_bits(J1_EXACT_GEAR_BITS)) / std::f64::consts::TAU;
+    assert_eq!(4.0 * spr, f64::from(J1_EXACT_STEP_RATE));
     let mut wrong = Vec::new();
     for e in edges() {
         let mut c = PAROL6;
