@@ -40,7 +40,9 @@
 # (the packages whose tests judge each mutant, default `kernel`; the number
 # types and the configuration, `scalar.rs`, `config.rs`, `types.rs`, are
 # also exercised by `protocol`'s tests: the decimal text of every report,
-# the parser's numbers, so their run uses "kernel protocol"), MUTANTS_ARGS (further
+# the parser's numbers, so their second stage uses "kernel protocol";
+# `config.rs`'s adds `monitor`, which reads the configuration's derived
+# values), MUTANTS_ARGS (further
 # cargo-mutants arguments, e.g. `--re PATTERN` or `--iterate`). A file the
 # commit does not have is skipped.
 set -euo pipefail
