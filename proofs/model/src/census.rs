@@ -2,7 +2,7 @@
 //! each kernel state, homed mask and tuple of homing phases holds, and how
 //! many were first reached after each number of ticks (where an
 //! exploration still grows when it is stopped), to show
-//! where a configuration's state space lies (the full configuration's in
+//! where a configuration's state space lies (the stream configuration's in
 //! homing runs and, once homed, in the set-points' trajectories and
 //! soft-stop ramps). Off unless asked for: it takes a lock per transition.
 

@@ -42,7 +42,7 @@ pub(crate) const HW_DRIVER_DIAG: Perturb =
 
 pub(crate) const PERTURBATIONS: [Perturb; 6] =
     [Perturb::None, Perturb::LostJ1, Perturb::GlitchJ1, HW_OVERRUN, Perturb::StraySwitch(0), Perturb::StraySwitch(5)];
-/// The full configuration's perturbations outside homing: every one, with
+/// The full and stream configurations' perturbations outside homing: every one, with
 /// every kind of hardware fault.
 pub(crate) const PERTURBATIONS_FULL: [Perturb; 9] = [
     Perturb::None,
@@ -82,11 +82,11 @@ pub(crate) const REQUESTS_HOMING_CONFIG: [Option<Req>; 7] = [
 ];
 pub(crate) const PERTURBATIONS_HOMING_CONFIG: [Perturb; 2] = [Perturb::None, HW_OVERRUN];
 /// In Homing every request is refused (no state change, a `Rejected`
-/// event): the full configuration keeps one motion request to check that.
+/// event): the full and stream configurations keep one motion request to check that.
 pub(crate) const REQUESTS_HOMING: [Option<Req>; 2] = [None, Some(Req::MotionNear)];
-/// Perturbations the full configuration explores during homing (with every
+/// Perturbations the full and stream configurations explore during homing (with every
 /// arrival order); the small one explores all six there (with all-or-nothing
-/// arrivals). Without this the full run outgrew its time budget.
+/// arrivals). A restriction: without it the full run outgrew its time budget.
 pub(crate) const PERTURBATIONS_HOMING: [Perturb; 4] =
     [Perturb::None, Perturb::LostJ1, HW_OVERRUN, Perturb::StraySwitch(5)];
 /// The tiny configuration's perturbations: those of the full one during
@@ -128,7 +128,7 @@ impl<S: ModelScalar> Supervisor<S> {
             Req::HomeJoint(j) => Request::HomeJoint(j),
             Req::Enable => Request::Enable(self.authority.enable()),
             Req::MotionHere => Request::Motion(t(self.here)),
-            Req::MotionNear => Request::Motion(t(self.here.map(|x| x.minus(S::from_f32(0.002))))),
+            Req::MotionNear => Request::Motion(t(self.here.map(|x| x.minus(self.near)))),
             Req::MotionOutOfLimits => Request::Motion(t(self.out_of_limits)),
         }
     }

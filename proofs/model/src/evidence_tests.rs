@@ -11,7 +11,7 @@ use std::collections::BTreeSet;
 /// Every property of every configuration of the model.
 fn model_properties() -> BTreeSet<&'static str> {
     let mut names = BTreeSet::new();
-    for cfg in ["full", "small", "tiny", "homing"] {
+    for cfg in ["full", "stream", "small", "tiny", "homing"] {
         names.extend(supervisor::<Fx>(cfg).properties().iter().map(|p| p.name));
     }
     names

@@ -1,4 +1,4 @@
-//! The model: its configurations (full, small, tiny, homing) and the
+//! The model: its configurations (full, stream, small, tiny, homing) and the
 //! stateright `Model` over the real kernel.
 
 use crate::config::{HOMING_MODEL_CONFIG, MODEL_CONFIG};
@@ -17,6 +17,12 @@ pub(crate) struct Supervisor<S: Scalar> {
     pub(crate) init: Kernel<S>,
     pub(crate) authority: Authority,
     pub(crate) here: [S; AXES],
+    /// How far below `here` the second valid target lies, on every joint
+    /// (`NEAR_LANDING` in the full configuration, `NEAR_STREAM` in the
+    /// others).
+    pub(crate) near: S,
+    /// The full configuration: valid targets `NEAR_LANDING` apart.
+    pub(crate) landing: bool,
     /// A target just outside J1's limits, within a stream sample's reach of
     /// the homed arm (so only the limits can refuse it).
     pub(crate) out_of_limits: [S; AXES],
@@ -49,7 +55,24 @@ pub(crate) fn homed_positions<S: ModelScalar>() -> [S; AXES] {
     k.tick(&still(0), None).status.position
 }
 
-/// The model of configuration `cfg` (full, small, tiny, homing).
+/// The second valid target's distance below `here` in the full
+/// configuration (rad): a motion toward either target lands in one tick on
+/// every joint (20 urad in a 1 ms tick is 0.02 rad/s, under the smallest
+/// per-tick velocity step of the arm's set-points, J1's and J2's
+/// 0.024 rad/s, `tests::a_near_motion_lands_in_one_tick`), so the
+/// set-points' positions and velocities take finitely many values and the
+/// configuration finishes. What it still reaches: motions interrupted and
+/// reversed (a target sent while the set-point moves toward the other),
+/// soft stops from a moving set-point, every request, perturbation and
+/// arrival order. What it does not: a set-point cruising or braking by the
+/// braking test (the stream configuration's 2 mrad targets, bounded).
+pub(crate) const NEAR_LANDING: f32 = 0.000_02;
+/// The second valid target's distance in the other configurations (rad):
+/// within a stream sample's reach, far enough that a motion accelerates,
+/// cruises and brakes over several ticks.
+pub(crate) const NEAR_STREAM: f32 = 0.002;
+
+/// The model of configuration `cfg` (full, stream, small, tiny, homing).
 pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
     let (small, tiny, homing) = (matches!(cfg, "small" | "tiny"), cfg == "tiny", cfg == "homing");
     // Valid targets near the stationary arm: it ends homing on its switches,
@@ -70,7 +93,9 @@ pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
     let (lo, hi) = (S::from_f32(j1.limit_min), S::from_f32(j1.limit_max));
     out_of_limits[0] =
         if here[0].minus(lo) < hi.minus(here[0]) { lo.minus(S::from_f32(0.01)) } else { hi.plus(S::from_f32(0.01)) };
-    Supervisor { init, authority, here, out_of_limits, small, tiny, homing }
+    let landing = cfg == "full";
+    let near = S::from_f32(if landing { NEAR_LANDING } else { NEAR_STREAM });
+    Supervisor { init, authority, here, near, landing, out_of_limits, small, tiny, homing }
 }
 
 impl<S: ModelScalar> Model for Supervisor<S> {
@@ -81,7 +106,7 @@ impl<S: ModelScalar> Model for Supervisor<S> {
         vec![St {
             k: self.init.clone(),
             violated: 0,
-            ever_enabled: false,
+            enabled: false,
             j1: J1 { seen: false, reference: 0, run: 0 },
             ramp: None,
             group_waited: false,
@@ -99,5 +124,56 @@ impl<S: ModelScalar> Model for Supervisor<S> {
 
     fn properties(&self) -> Vec<Property<Self>> {
         self.state_properties()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kernel::{Fx, MotionKind, MotionTarget};
+    use proofs::setup::{still, HOMING_TICKS};
+
+    /// The full configuration's kernel, homed on the stationary arm (every
+    /// seeking axis's switch arriving on the first tick it seeks).
+    fn homed(m: &Supervisor<Fx>) -> Kernel<Fx> {
+        let mut k = m.init.clone();
+        k.tick(&still(0), None);
+        k.tick(&still(0), Some(Request::Home));
+        for _ in 0..HOMING_TICKS {
+            let phases = k.homing_phases();
+            let seeking = phases.iter().enumerate().filter(|(_, p)| matches!(p, Phase::FastSeek | Phase::SlowSeek));
+            let limits = seeking.fold(0u8, |m, (i, _)| m | 1 << i);
+            k.tick(&still(limits), None);
+        }
+        k
+    }
+
+    /// From rest, a motion toward the full configuration's near target
+    /// lands on it in the tick that accepts it, on every joint (its
+    /// distance in one tick is a speed under every joint's per-tick
+    /// velocity step); toward the 2 mrad target of the other
+    /// configurations it does not.
+    #[test]
+    fn a_near_motion_lands_in_one_tick() {
+        let hz = MODEL_CONFIG.tick_hz;
+        for j in &MODEL_CONFIG.joints {
+            let dv = kernel::interp::joint_profile::<f32>(j, hz).dv;
+            assert!(NEAR_LANDING * hz as f32 <= dv, "{} rad/s > dv {dv}", NEAR_LANDING * hz as f32);
+        }
+        for (cfg, lands) in [("full", true), ("stream", false)] {
+            let m = supervisor::<Fx>(cfg);
+            let mut k = homed(&m);
+            assert_eq!(k.state(), State::Operational);
+            let target = m.here.map(|x| x.minus(m.near));
+            let t = MotionTarget { position: target, velocity: [Fx::ZERO; AXES], kind: MotionKind::Stream };
+            let o = k.tick(&still(0), Some(Request::Motion(t)));
+            assert_eq!(o.status.state, State::Operational);
+            assert_eq!(
+                o.status.setpoint == target,
+                lands,
+                "{cfg}: set-points {:?}, target {target:?}",
+                o.status.setpoint
+            );
+        }
     }
 }

@@ -45,7 +45,7 @@ impl<S: ModelScalar> Supervisor<S> {
             Property::<Self>::sometimes("hardware fault: tick overrun", |_, s| {
                 matches!(s.k.fault().map(|f| f.reason), Some(FaultReason::Hardware(HardwareFault::TickOverrun)))
             }),
-            Property::<Self>::sometimes("enable accepted", |_, s| s.ever_enabled),
+            Property::<Self>::sometimes("enable accepted", |_, s| s.enabled),
         ]);
         if self.homing {
             p.extend([
@@ -67,6 +67,11 @@ impl<S: ModelScalar> Supervisor<S> {
             ]);
             return p;
         }
+        // (The full configuration's motions end before the command timeout
+        // expires, so it never soft-stops on it: `model::NEAR_LANDING`.)
+        if !self.landing {
+            p.push(Property::<Self>::sometimes("soft E-stop latched", |_, s| s.k.state() == State::SoftEstop));
+        }
         p.extend([
             Property::<Self>::sometimes("moving in operational", |_, s| {
                 s.k.state() == State::Operational && !zero(&s.k.last_output())
@@ -74,7 +79,6 @@ impl<S: ModelScalar> Supervisor<S> {
             Property::<Self>::sometimes("soft stop ramping", |_, s| {
                 s.k.state() == State::Stopping && !zero(&s.k.last_output())
             }),
-            Property::<Self>::sometimes("soft E-stop latched", |_, s| s.k.state() == State::SoftEstop),
             Property::<Self>::sometimes("limit-switch fault", |_, s| {
                 matches!(s.k.fault().map(|f| f.reason), Some(FaultReason::LimitSwitch { .. }))
             }),

@@ -22,8 +22,12 @@ pub(crate) struct St<S: Scalar> {
     /// The transition checks violated on the way into this state (a bit per
     /// `Check`; checked on every transition, so no history is needed).
     pub(crate) violated: u64,
-    /// An enable has been accepted at some point (for reachability only).
-    pub(crate) ever_enabled: bool,
+    /// The transition into this state accepted an enable (for reachability
+    /// only: the property "enable accepted" holds in some reachable state
+    /// exactly when some explored transition accepted an enable, as a flag
+    /// kept from then on would say, without doubling every state reached
+    /// after the first enable).
+    pub(crate) enabled: bool,
     pub(crate) j1: J1,
     /// The soft-stop ramp: its tick (1 on the timeout tick) and the outputs
     /// it started from.
@@ -51,7 +55,7 @@ impl<S: ModelScalar> St<S> {
 impl<S: ModelScalar> Hash for St<S> {
     fn hash<H: Hasher>(&self, h: &mut H) {
         S::hash_kernel(&self.k, h);
-        (self.violated, self.ever_enabled, self.j1, self.group_waited).hash(h);
+        (self.violated, self.enabled, self.j1, self.group_waited).hash(h);
         // The ramp's start equals the kernel's Stopping v0 (hashed above);
         // its tick is the kernel's k + 1.
         self.ramp.map(|(k, _)| k).hash(h);

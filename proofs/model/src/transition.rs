@@ -275,8 +275,14 @@ impl<S: ModelScalar> Supervisor<S> {
         if st == State::Homing {
             c.check(Check::Recoverable, true, self.recovers_from_link_loss(&n.k, pressed));
         }
+        // The boot's length forgotten (`boot`): an exact merge.
+        if before == State::Boot && st != State::Boot {
+            if let Some(k) = self.short_boot(&n.k, &sense, req.map(|r| self.request(r))) {
+                n.k = k;
+            }
+        }
         n.violated |= c.violated;
-        n.ever_enabled |= enabled;
+        n.enabled = enabled;
         n.ticks = s.ticks.saturating_add(1);
         c.record();
         crate::census::note(&n);
