@@ -20,6 +20,14 @@
 //! (the fault `EncoderNotReady`) is never matched, and keeps its count.
 
 use crate::identity::ModelScalar;
+use std::sync::atomic::AtomicBool;
+
+/// `--no-merges`: the model without its two own merges (this one and the
+/// enable flag marking only the state an accepted enable reached: it is
+/// kept from the first enable on instead), so the figures measured without
+/// them can be regenerated; a run with it checks the same properties on
+/// more states.
+pub(crate) static OFF: AtomicBool = AtomicBool::new(false);
 use crate::model::Supervisor;
 use kernel::{Kernel, Request, Sense};
 

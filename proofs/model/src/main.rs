@@ -2,7 +2,7 @@
 //! over the real `kernel::Kernel` (`cargo run -p model --release`).
 //!
 //! ```text
-//! model [--variant fx|f32] [--config full|stream|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census] [--coupling]
+//! model [--variant fx|f32] [--config full|stream|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census] [--coupling] [--no-merges]
 //! ```
 //!
 //! With no arguments: the full configuration over `Kernel<Fx>` (to
@@ -22,6 +22,9 @@
 //! `--coupling` checks the homing group's coupling lemma on every explored
 //! transition without a request or perturbation and fails unless it held
 //! on every one and the run finished (`coupling`).
+//! `--no-merges` turns off the model's own two merges (`boot`: the Boot
+//! tick count, and the enable flag kept from the first enable on), to
+//! regenerate the figures measured without them.
 //!
 //! Properties: each transition check (`checks!`) and each state property is
 //! a property of its own, named by the requirements it checks (`SR-5: a
@@ -187,6 +190,8 @@ fn main() {
     // `--coupling`: check the homing group's coupling lemma on every
     // transition without a request or perturbation (`coupling`).
     coupling::ON.store(args.iter().any(|a| a == "--coupling"), std::sync::atomic::Ordering::Relaxed);
+    // `--no-merges`: the model without its own two merges (`boot`).
+    boot::OFF.store(args.iter().any(|a| a == "--no-merges"), std::sync::atomic::Ordering::Relaxed);
     // `--bounded S`: explore breadth first for at most S seconds and report
     // a bounded exploration (sampled evidence) if it does not finish.
     // Only the stream configuration is bounded: the others (full, small,

@@ -276,13 +276,14 @@ impl<S: ModelScalar> Supervisor<S> {
             c.check(Check::Recoverable, true, self.recovers_from_link_loss(&n.k, pressed));
         }
         // The boot's length forgotten (`boot`): an exact merge.
-        if before == State::Boot && st != State::Boot {
+        let merges = !crate::boot::OFF.load(std::sync::atomic::Ordering::Relaxed);
+        if merges && before == State::Boot && st != State::Boot {
             if let Some(k) = self.short_boot(&n.k, &sense, req.map(|r| self.request(r))) {
                 n.k = k;
             }
         }
         n.violated |= c.violated;
-        n.enabled = enabled;
+        n.enabled = enabled || (!merges && s.enabled);
         n.ticks = s.ticks.saturating_add(1);
         c.record();
         crate::census::note(&n);
