@@ -33,9 +33,10 @@
 # mutant in seconds, default 20: the kernel's tests take about 5 s, the
 # mutants that break the homing sequencing never end a homing run and are
 # counted as timeouts after it), MUTANTS_JOBS (default 2), MUTANTS_SHARD
-# (k/n: only that shard, every n-th mutant from the k-th, for splitting one
-# run across invocations; give every shard the same MUTANTS_REV and its own
-# MUTANTS_OUT), MUTANTS_SRC (scratch directory, default a fresh mktemp -d),
+# (k/n: only that shard, for splitting one run across invocations: the k-th
+# of n consecutive slices of the mutant list, cargo-mutants' default
+# sharding; give every shard the same MUTANTS_REV, files and arguments, and
+# its own MUTANTS_OUT), MUTANTS_SRC (scratch directory, default a fresh mktemp -d),
 # MUTANTS_REV (the commit to mutate, default HEAD), MUTANTS_TEST_PACKAGES
 # (the packages whose tests judge each mutant, default `kernel`; the number
 # types and the configuration, `scalar.rs`, `config.rs`, `types.rs`, are
