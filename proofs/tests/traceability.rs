@@ -420,3 +420,52 @@ fn the_safety_case_check_fails_on_each_kind_of_gap() {
         );
     }
 }
+
+/// The commit `docs/MUTANTS.md`'s result heading names ("## Result: one run
+/// at <commit>"), and the same commit in SAFETY.md's mutation line.
+fn mutation_commit(mutants: &str, safety: &str) -> Result<String, String> {
+    let heading = "## Result: one run at ";
+    let start = mutants.find(heading).ok_or("docs/MUTANTS.md has no '## Result: one run at <commit>'")?;
+    let commit: String = mutants[start + heading.len()..].chars().take_while(char::is_ascii_hexdigit).collect();
+    if commit.len() < 7 {
+        return Err(format!("docs/MUTANTS.md's result heading names no commit: '{commit}'"));
+    }
+    if !safety.contains(&format!("one run at {commit}")) {
+        return Err(format!("SAFETY.md does not give the mutation run at {commit} that docs/MUTANTS.md gives"));
+    }
+    Ok(commit)
+}
+
+/// The mutation score is of the kernel in this tree: the commit the run
+/// mutated has the same `kernel/src` as the checkout. A change to the
+/// kernel's sources fails this until the run is redone at a commit that
+/// has them (`docs/MUTANTS.md`, "The commands").
+#[test]
+fn the_mutation_score_is_of_the_kernel_in_this_tree() {
+    let read = |p: &str| std::fs::read_to_string(root().join(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
+    let commit = mutation_commit(&read("docs/MUTANTS.md"), &read("SAFETY.md")).unwrap_or_else(|e| panic!("{e}"));
+    if !root().join(".git").exists() {
+        eprintln!("not a git checkout: the kernel's sources cannot be compared with {commit}");
+        return;
+    }
+    let out = std::process::Command::new("git")
+        .current_dir(root())
+        .args(["diff", "--stat", &commit, "--", "kernel/src"])
+        .output()
+        .expect("git runs");
+    assert!(out.status.success(), "git diff {commit}: {}", String::from_utf8_lossy(&out.stderr));
+    let diff = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        diff.trim().is_empty(),
+        "kernel/src differs from {commit}, the commit of docs/MUTANTS.md's mutation run: redo the run\n{diff}"
+    );
+}
+
+#[test]
+fn the_mutation_commit_must_agree_between_the_documents() {
+    let mutants = "text\n## Result: one run at b7a42de\n";
+    assert_eq!(mutation_commit(mutants, "one run at b7a42de of every file").as_deref(), Ok("b7a42de"));
+    assert!(mutation_commit(mutants, "one run at 4e1f941").is_err());
+    assert!(mutation_commit("## Result: one run at HEAD\n", "one run at HEAD").is_err());
+    assert!(mutation_commit("no heading", "one run at b7a42de").is_err());
+}
