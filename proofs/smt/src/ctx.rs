@@ -134,6 +134,10 @@ struct Explorer {
     /// Explore both outcomes of every decision without asking z3 (see
     /// [`explore_blind`]).
     blind_all: bool,
+    /// A decision on a constant (a term without inputs) takes its value
+    /// from z3's evaluator instead of exploring both outcomes (see
+    /// [`explore_blind_evaluating_constants`]).
+    evaluate_constants: bool,
     /// Unsatisfiable cores of property checks on earlier paths: (property,
     /// path literals). A path whose condition contains every literal of a
     /// core of its property is proved without z3 (`u32::MAX`: the path
@@ -620,6 +624,18 @@ fn literal(cond: u32, outcome: bool) -> String {
 /// The outcome of the Boolean term `cond` on the current path (see the
 /// module docs). Panics outside [`explore`] / [`evaluate`].
 pub fn decide(cond: u32) -> bool {
+    decide_with(cond, false)
+}
+
+/// [`decide`] without asking z3 whether the outcomes are feasible: both are
+/// explored (sound, as a blind decision is; see [`explore_blind`]). For
+/// Boolean inputs the proof draws itself, which are feasible both ways
+/// until the path condition mentions them.
+pub fn branch(cond: u32) -> bool {
+    decide_with(cond, true)
+}
+
+fn decide_with(cond: u32, open: bool) -> bool {
     match cond {
         TRUE => return true,
         FALSE => return false,
@@ -648,7 +664,27 @@ pub fn decide(cond: u32) -> bool {
             // costs time, never soundness (its property check is then
             // trivially unsatisfiable).
             let ms = crate::z3::decide_timeout_ms();
-            let (t, f) = if c.explorer.blind_all {
+            let ground = c.nodes.get(cond as usize).is_some_and(|n| n.ground);
+            // A constant condition (no input in it), when asked: z3's
+            // evaluator gives its one outcome (blind exploration would take
+            // both).
+            let value = if ground && c.explorer.evaluate_constants {
+                c.load(&[cond], false, false);
+                match c.z3.simplify(&name(cond)).as_str() {
+                    "true" => Some(true),
+                    "false" => Some(false),
+                    _ => None,
+                }
+            } else {
+                None
+            };
+            let (t, f) = if let Some(v) = value {
+                if v {
+                    (Sat::Sat, Sat::Unsat)
+                } else {
+                    (Sat::Unsat, Sat::Sat)
+                }
+            } else if c.explorer.blind_all || open {
                 c.explorer.blind += 1;
                 (Sat::Unknown, Sat::Unknown)
             } else {
@@ -738,7 +774,7 @@ impl Outcome {
 /// that satisfies its [`assume`]s). Stops at the first counterexample.
 /// Panics if no path is feasible (a vacuous precondition).
 pub fn explore(f: impl FnMut() -> Vec<u32>) -> Outcome {
-    explore_with(false, f)
+    explore_with(false, false, f)
 }
 
 /// [`explore`], but every decision explores both outcomes without asking
@@ -750,13 +786,22 @@ pub fn explore(f: impl FnMut() -> Vec<u32>) -> Outcome {
 /// path's check then needs few of its literals) and feasibility checks are
 /// expensive (floating point).
 pub fn explore_blind(f: impl FnMut() -> Vec<u32>) -> Outcome {
-    explore_with(true, f)
+    explore_with(true, false, f)
 }
 
-fn explore_with(blind_all: bool, mut f: impl FnMut() -> Vec<u32>) -> Outcome {
+/// [`explore_blind`], except that a decision on a constant (a term with
+/// no input in it: the preparation steps of `props::gate_homing`) takes
+/// the value z3's evaluator gives it, so only the outcome the code takes
+/// is explored. For proofs whose decisions on inputs are each feasible
+/// both ways, where feasibility checks cost most of the time.
+pub fn explore_blind_evaluating_constants(f: impl FnMut() -> Vec<u32>) -> Outcome {
+    explore_with(true, true, f)
+}
+
+fn explore_with(blind_all: bool, evaluate_constants: bool, mut f: impl FnMut() -> Vec<u32>) -> Outcome {
     let t0 = Instant::now();
     let checks0 = with(|c| {
-        c.explorer = Explorer { pending: vec![Vec::new()], blind_all, ..Explorer::default() };
+        c.explorer = Explorer { pending: vec![Vec::new()], blind_all, evaluate_constants, ..Explorer::default() };
         c.z3.checks
     });
     let (mut paths, mut discarded) = (0u64, 0u64);

@@ -6,7 +6,9 @@
 //! kernel's own generic functions (`Scalar::saturate`,
 //! `Scalar::clamp_between`, `control::control_law`, `AlphaBeta::step` /
 //! `coast`, `Interpolator::advance` with `interp::profile`, the soft-stop
-//! and homing ramps of `ramp`) run on them unchanged; every `bool` they
+//! and homing ramps of `ramp`, `homing::AxisHoming::step`, composed per
+//! mode into the candidate outputs of the SR-2 output gate) run on them
+//! unchanged; every `bool` they
 //! branch on is a path decision ([`ctx`]), and each property is checked by
 //! z3 on every feasible path (or, explored blind, on every path):
 //! proved for all inputs, NaN and infinities included.
@@ -39,6 +41,9 @@ pub struct Proof {
     /// Explore every decision blind, reusing unsatisfiable cores
     /// ([`ctx::explore_blind`]) instead of asking z3 at each decision.
     pub blind: bool,
+    /// With `blind`: decisions on constants take their one value
+    /// ([`ctx::explore_blind_evaluating_constants`]).
+    pub evaluate_constants: bool,
     /// Builds the property (inputs, preconditions, kernel code).
     pub build: fn(usize) -> Vec<B>,
 }
@@ -57,7 +62,15 @@ impl Proof {
         let j = self.joints.first().copied().unwrap_or(0);
         let build = self.build;
         let f = || build(j).into_iter().map(|b| b.0).collect();
-        ctx::session(|| if self.blind { ctx::explore_blind(f) } else { ctx::explore(f) })
+        ctx::session(|| {
+            if self.blind && self.evaluate_constants {
+                ctx::explore_blind_evaluating_constants(f)
+            } else if self.blind {
+                ctx::explore_blind(f)
+            } else {
+                ctx::explore(f)
+            }
+        })
     }
 }
 
@@ -78,7 +91,15 @@ fn groups<K: PartialEq>(key: impl Fn(usize) -> K) -> Vec<Vec<usize>> {
 
 fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
     let v = S::VARIANT;
-    let one = |name, build| Proof { name, variant: v, joints: Vec::new(), extended: false, blind: false, build };
+    let one = |name, build| Proof {
+        name,
+        variant: v,
+        joints: Vec::new(),
+        extended: false,
+        blind: false,
+        evaluate_constants: false,
+        build,
+    };
     out.push(one("saturate", |_| props::saturate::<S>(|x, l| x.saturate(l))));
     out.push(one("clamp_between", |_| props::clamp_between::<S>()));
     // The control law sees (kp, vmax, deadband); group joints by their
@@ -93,6 +114,7 @@ fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
             joints,
             extended: false,
             blind: false,
+            evaluate_constants: false,
             build: |j| props::control::<S>(j),
         });
     }
@@ -104,11 +126,42 @@ fn per_variant<S: Sym>(out: &mut Vec<Proof>) {
     out.push(one("observer coast: bounded move", |_| props::observer_coast::<S>(1e-5)));
     out.push(one("soft-stop scale: in [0, 1]", |_| props::stop_scale::<S>(1)));
     // Explored blind for the bit-blasting tactic and the product lemmas.
-    let blind = |name, build| Proof { name, variant: v, joints: Vec::new(), extended: false, blind: true, build };
+    let blind = |name, build| Proof {
+        name,
+        variant: v,
+        joints: Vec::new(),
+        extended: false,
+        blind: true,
+        evaluate_constants: false,
+        build,
+    };
     out.push(blind("soft-stop output: finite, zero at the end, inside the envelope and prev", |_| {
         props::stop_output::<S>(kernel::ramp::stop_output)
     }));
     out.push(blind("homing ramp: within the computed vel +- dv", |_| props::homing_ramp::<S>(kernel::ramp::toward)));
+    // The SR-2 output gate (`Kernel::check`): each mode's candidate output
+    // from its inputs, finite and within vmax (`props::gate_operational`).
+    out.push(Proof {
+        name: "output gate, Operational: law then acceleration clamp, finite and within vmax",
+        variant: v,
+        joints: Vec::new(),
+        extended: false,
+        blind: true,
+        evaluate_constants: true,
+        build: |_| props::gate_operational::<S>(kernel::control::control_law, props::Pre::ALL),
+    });
+    out.push(blind("output gate, Stopping: soft-stop output finite and within vmax", |_| {
+        props::gate_stopping::<S>(kernel::ramp::stop_output, props::Pre::ALL)
+    }));
+    out.push(Proof {
+        name: "output gate, Homing: homing step finite and within vmax, keeps |vel| <= vmax",
+        variant: v,
+        joints: Vec::new(),
+        extended: false,
+        blind: true,
+        evaluate_constants: true,
+        build: |_| props::gate_homing::<S>(props::Pre::ALL),
+    });
 }
 
 /// Every proof, for both variants.
@@ -122,6 +175,7 @@ pub fn all() -> Vec<Proof> {
         joints: Vec::new(),
         extended: false,
         blind: false,
+        evaluate_constants: false,
         build: |_| props::observer_between::<SymF32>(1e-5, false),
     });
     out.push(Proof {
@@ -130,6 +184,7 @@ pub fn all() -> Vec<Proof> {
         joints: Vec::new(),
         extended: false,
         blind: false,
+        evaluate_constants: false,
         build: |_| props::observer_between::<SymFx>(0.0, true),
     });
     // The interpolator sees its profile only: group joints by the concrete
@@ -143,6 +198,7 @@ pub fn all() -> Vec<Proof> {
         joints,
         extended,
         blind: true,
+        evaluate_constants: false,
         build,
     };
     for joints in groups(props::joint_profile::<f32>) {
@@ -203,6 +259,7 @@ pub fn all() -> Vec<Proof> {
 /// to these rows and checks that they claim it.
 pub fn requirements(name: &str) -> &'static str {
     match name {
+        n if n.starts_with("output gate") => "SR-2",
         n if n.starts_with("saturate") || n.starts_with("control_law") => "SR-2/3",
         n if n.starts_with("clamp_between") => "SR-2",
         n if n.starts_with("observer") => "SR-3",
@@ -228,6 +285,29 @@ mod tests {
             assert_eq!(k32.profile(j), Some(crate::props::joint_profile::<f32>(j)), "J{}", j + 1);
             assert_eq!(kfx.profile(j), Some(crate::props::joint_profile::<kernel::Fx>(j)), "J{}", j + 1);
         }
+    }
+
+    /// The output-gate proofs' preconditions on the configuration hold for
+    /// the shipped one, in both variants: each constant as `Params::new`
+    /// converts it (`S::from_f32` of the `f32` expression it writes).
+    fn gate_preconditions_hold<S: kernel::Scalar>() {
+        let c = &crate::props::CONFIG;
+        for (i, j) in c.joints.iter().enumerate() {
+            let vmax = S::from_f32(j.max_velocity);
+            assert!(vmax > S::ZERO && vmax <= S::from_f32(16.0), "J{}: vmax", i + 1);
+            let within = |x: S| x.is_finite() && x.abs() <= vmax;
+            let step = S::from_f32(j.max_acceleration / c.tick_hz as f32);
+            assert!(step.is_finite() && step >= S::ZERO, "J{}: accel_step and homing dv", i + 1);
+            let dir = j.homing.direction.sign();
+            assert!(within(S::from_f32(j.homing.fast_speed * dir)), "J{}: fast_toward", i + 1);
+            assert!(within(S::from_f32(j.homing.slow_speed * dir)), "J{}: slow_toward", i + 1);
+        }
+    }
+
+    #[test]
+    fn the_gate_preconditions_hold_for_the_shipped_configuration() {
+        gate_preconditions_hold::<f32>();
+        gate_preconditions_hold::<kernel::Fx>();
     }
 
     #[test]

@@ -9,6 +9,7 @@
 use crate::sym::{Sym, B};
 use kernel::config::{ArmConfig, PAROL6};
 use kernel::control::control_law;
+use kernel::homing::{AxisHoming, HomingParams, Phase};
 use kernel::interp::{joint_profile as joint_profile_of, Interpolator, Profile};
 use kernel::observer::{AlphaBeta, ObserverGains};
 use kernel::ramp;
@@ -335,4 +336,369 @@ pub fn homing_ramp<S: Sym>(f: Toward<S>) -> Vec<B> {
         within(want, lo, hi).implies(v.t_eq(want)),
         if S::VARIANT == "I8F24" { v.minus(vel).abs().t_le(dv) } else { B::TRUE },
     ]
+}
+
+// ------------------------------------------------- the SR-2 output gate --
+//
+// `Kernel::check` (`kernel/src/kernel/supervisor.rs`) faults a candidate
+// output that is not finite or above the joint's `vmax`. The candidate is
+// one of four (`Kernel::supervise` and `Kernel::motion`, read): zero
+// (`[S::ZERO; AXES]`, kept in every state but these three); Operational:
+// the control law's command limited to one tick's change from the last
+// output (`gate_operational`); Stopping: `ramp::stop_output`
+// (`gate_stopping`); Homing: `AxisHoming::step`'s velocity for the joints
+// of the group being homed (`gate_homing`). Each property below runs the
+// kernel's own per-axis code from that mode's inputs to the candidate and
+// proves it finite and within `vmax`, under the preconditions it states:
+// the configuration's bounds (`config::check`) and the last output's bound
+// (the state invariant's clause 2, SR-32), so the gate's fault branch is
+// unreachable per step, given the invariant.
+
+/// Which preconditions a gate property assumes: all of them for the
+/// proofs; the tests drop one to show that the property then fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pre {
+    /// The last output (Operational, Stopping) or the homing ramp's
+    /// velocity (Homing) finite and within `[-vmax, vmax]`.
+    pub last_output: bool,
+    /// The configuration's bounds on the step sizes and homing speeds.
+    pub config: bool,
+}
+
+impl Pre {
+    /// Every precondition.
+    pub const ALL: Pre = Pre { last_output: true, config: true };
+}
+
+/// The joint's speed limit as `Params::new` builds it
+/// (`S::from_f32(max_velocity)`, `config::check`: finite, in `(0, 16]`),
+/// any such value.
+fn gate_vmax<S: Sym>() -> S {
+    let vmax = S::var("vmax");
+    B::all(&[within(vmax, S::ZERO, S::from_f32(16.0)), S::ZERO.t_lt(vmax)]).assume();
+    vmax
+}
+
+/// A control law under proof (`control::control_law`; the tests pass
+/// broken ones): `(set-point, feed-forward, estimate, kp, vmax, deadband)
+/// -> (command, ok)`.
+pub type Law<S> = fn(S, S, S, S, S, S) -> (S, bool);
+
+/// The Operational candidate: `Axis::control`'s command (`law`, for
+/// **every** set-point, feed-forward and estimate, so whatever the
+/// interpolator's step gives, and every gain and deadband), then
+/// `Kernel::motion`'s acceleration clamp to within `accel_step` of the last
+/// output `prev`. Preconditions: `prev` finite and `|prev| <= vmax`
+/// (invariant clause 2); `accel_step` finite and `>= 0` (`config::check`:
+/// `max_acceleration` in `(0, 200]`, divided by `tick_hz`). Proves the
+/// candidate finite and `|out| <= vmax`.
+///
+/// The clamp is written inline in `Kernel::motion`
+/// (`kernel/src/kernel/supervisor.rs`, `let followed = ...`), not in a
+/// function this crate can call: the line below is a copy of it, the same
+/// operations in the same order, read against it, not proved to be it.
+pub fn gate_operational<S: Sym>(law: Law<S>, pre: Pre) -> Vec<B> {
+    let vmax = gate_vmax::<S>();
+    let (prev, accel_step) = (S::var("prev"), S::var("accel_step"));
+    if pre.last_output {
+        within(prev, vmax.neg(), vmax).assume();
+    }
+    if pre.config {
+        accel_step.t_finite().and(S::ZERO.t_le(accel_step)).assume();
+    }
+    let (sp, ff, x) = (S::var("setpoint"), S::var("feed_forward"), S::var("estimate"));
+    let (kp, deadband) = (S::var("kp"), S::var("deadband"));
+    let out = operational_candidate(law, [sp, ff, x, kp, vmax, deadband], prev, accel_step);
+    vec![out.t_finite(), out.abs().t_le(vmax)]
+}
+
+/// The Operational candidate of [`gate_operational`]: `law` on
+/// `[set-point, feed-forward, estimate, kp, vmax, deadband]`, then
+/// `Kernel::motion`'s acceleration clamp around `prev` (copied from
+/// `kernel/src/kernel/supervisor.rs`: `cmd.max(prev.minus(p.accel_step))
+/// .min(prev.plus(p.accel_step))`). Generic, so the tests replay it on the
+/// concrete types.
+pub fn operational_candidate<S: Scalar>(law: Law<S>, args: [S; 6], prev: S, accel_step: S) -> S {
+    let [sp, ff, x, kp, vmax, deadband] = args;
+    let (cmd, _ok) = law(sp, ff, x, kp, vmax, deadband);
+    cmd.max(prev.minus(accel_step)).min(prev.plus(accel_step))
+}
+
+/// The Stopping candidate: `Kernel::motion`'s soft-stop output,
+/// `ramp::stop_output` (`f`; the tests pass broken ones) with the scale
+/// `ramp::stop_scale` computes (from every product `inv_stop * left`: the
+/// input `scaled_left`, times 1, so every scale `Kernel::stop_scale` can
+/// give), following its braking command or not, before or at the ramp's
+/// end, for **every** starting output `v0`, braking command and stop step
+/// (NaN and infinities included). Precondition: the last output `prev`
+/// finite and `|prev| <= vmax` (invariant clause 2). Proves the candidate
+/// finite and `|out| <= vmax`.
+pub fn gate_stopping<S: Sym>(f: StopOutput<S>, pre: Pre) -> Vec<B> {
+    let vmax = gate_vmax::<S>();
+    let prev = S::var("prev");
+    if pre.last_output {
+        within(prev, vmax.neg(), vmax).assume();
+    }
+    let (v0, scaled_left) = (S::var("v0"), S::var("scaled_left"));
+    let (brake, stop_step) = (S::var("brake"), S::var("stop_step"));
+    let track = B::var("track").decide();
+    let done = B::var("done").decide();
+    let out = stopping_candidate(f, v0, scaled_left, prev, track.then_some((brake, stop_step)), done);
+    vec![out.t_finite(), out.abs().t_le(vmax)]
+}
+
+/// The Stopping candidate of [`gate_stopping`]: `f` (`ramp::stop_output`)
+/// with the scale `ramp::stop_scale(scaled_left, 1)`. Generic, so the
+/// tests replay it on the concrete types.
+pub fn stopping_candidate<S: Scalar>(
+    f: StopOutput<S>,
+    v0: S,
+    scaled_left: S,
+    prev: S,
+    follow: Option<(S, S)>,
+    done: bool,
+) -> S {
+    f(v0, ramp::stop_scale(scaled_left, 1), prev, follow, done)
+}
+
+/// Where the homing axis of [`homing_gate_case`] starts: each phase, and
+/// the back-off and release phases with and without a release point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HomingStart {
+    /// Not in the run.
+    Idle,
+    /// In the run, waiting for its group.
+    Waiting,
+    /// Fast seek at velocity `v`.
+    FastSeek,
+    /// Back-off at `v`, the switch not yet released.
+    BackOff,
+    /// Back-off at `v`, a release point recorded.
+    BackOffAnchored,
+    /// Slow seek at `v`.
+    SlowSeek,
+    /// Release at `v`, the switch not yet released.
+    Release,
+    /// Release at `v`, a release point recorded.
+    ReleaseAnchored,
+    /// Settling at `v`.
+    Settle,
+    /// Finished.
+    Done,
+}
+
+impl HomingStart {
+    /// Every start, in the order [`homing_gate_case`] picks them.
+    pub const ALL: [HomingStart; 10] = [
+        HomingStart::Idle,
+        HomingStart::Waiting,
+        HomingStart::FastSeek,
+        HomingStart::BackOff,
+        HomingStart::BackOffAnchored,
+        HomingStart::SlowSeek,
+        HomingStart::Release,
+        HomingStart::ReleaseAnchored,
+        HomingStart::Settle,
+        HomingStart::Done,
+    ];
+
+    /// The phase the preparation reaches.
+    pub fn phase(self) -> Phase {
+        match self {
+            HomingStart::Idle => Phase::Idle,
+            HomingStart::Waiting => Phase::Waiting,
+            HomingStart::FastSeek => Phase::FastSeek,
+            HomingStart::BackOff | HomingStart::BackOffAnchored => Phase::BackOff,
+            HomingStart::SlowSeek => Phase::SlowSeek,
+            HomingStart::Release | HomingStart::ReleaseAnchored => Phase::Release,
+            HomingStart::Settle => Phase::Settle,
+            HomingStart::Done => Phase::Done,
+        }
+    }
+
+    /// A moving phase, left at velocity `v` by the preparation.
+    pub fn moving(self) -> bool {
+        self.phase().is_moving()
+    }
+}
+
+/// Where [`homing_gate_case`] takes its inputs: symbolic (the proof) or
+/// a counterexample's values (the tests' replay on the concrete types).
+pub trait Inputs<S> {
+    /// The scalar input `name`.
+    fn scalar(&mut self, name: &str) -> S;
+    /// The Boolean input `name`.
+    fn flag(&mut self, name: &str) -> bool;
+}
+
+/// The symbolic inputs: each scalar a z3 variable, each flag a decision
+/// explored both ways.
+#[derive(Clone, Copy, Debug)]
+pub struct Symbolic;
+
+impl<S: Sym> Inputs<S> for Symbolic {
+    fn scalar(&mut self, name: &str) -> S {
+        S::var(name)
+    }
+    fn flag(&mut self, name: &str) -> bool {
+        B::var(name).branch()
+    }
+}
+
+/// One homing tick of [`homing_gate_case`]: the inputs that matter to the
+/// bound and what the step gave.
+#[derive(Clone, Copy, Debug)]
+pub struct HomingCase<S> {
+    /// Where the axis started.
+    pub start: HomingStart,
+    /// The velocity the preparation aimed at (free).
+    pub v: S,
+    /// The step's parameters (the joint's `HomingParams`).
+    pub params: HomingParams<S>,
+    /// The axis's velocity before the step (`AxisHoming::velocity`).
+    pub vel: S,
+    /// The step's output velocity (the candidate output).
+    pub out: S,
+    /// The axis's velocity after the step.
+    pub vel_after: S,
+    /// The preparation reached the phase it aimed at.
+    pub reached: bool,
+}
+
+/// Brings an axis, through its public interface (`reset`, `start`, `step`
+/// with parameters chosen for the purpose, at position 0, the switch as
+/// needed), to `start` with velocity `v` (moving phases; zero otherwise),
+/// then runs **one** `AxisHoming::step` with the switch, position and
+/// parameters from `src`. The preparation's steps ramp with `dv = 64` from
+/// rest to `v` (so to exactly `v` for `|v| <= 64`) and, into Settle, with
+/// `dv = 0` (keeping `v`); their travel bounds are 64 rad, their back-off
+/// zero, their timeouts never reached.
+///
+/// The step's own branches depend on state the preparation fixes (the
+/// phase origin and release point at 0, the tick and rest counts, no
+/// tighter fast-seek bound) only through comparisons with the free
+/// position `x`, the free bounds and back-off, and the chosen timeout and
+/// settle time (`0` or `u32::MAX`, each chosen by `src`), so every branch
+/// of the step is taken for some inputs; and its output depends on the
+/// state only through its phase and velocity (`homing.rs`, read).
+pub fn homing_gate_case<S: Scalar>(src: &mut impl Inputs<S>) -> HomingCase<S> {
+    let n = HomingStart::ALL.len();
+    let start = HomingStart::ALL
+        .iter()
+        .enumerate()
+        .find(|(i, s)| *i + 1 == n || src.flag(&format!("start {s:?}")))
+        .map_or(HomingStart::Done, |(_, s)| *s);
+    let v = if start.moving() { src.scalar("v") } else { S::ZERO };
+    let wide = S::from_f32(64.0);
+    let prep = |fast: S, slow: S, dv: S, settle_ticks: u32| HomingParams {
+        fast_toward: fast,
+        slow_toward: slow,
+        backoff: S::ZERO,
+        timeout_ticks: u32::MAX,
+        dv,
+        max_travel: wide,
+        phase_travel: wide,
+        settle_ticks,
+    };
+    let z = S::ZERO;
+    let plain = prep(z, z, wide, u32::MAX);
+    // Ramps to `v`: in the seeks toward `fast` / `slow`, in the back-off
+    // and release away from the switch (`-fast`).
+    let seek_v = prep(v, v, wide, u32::MAX);
+    let away_v = prep(v.neg(), v, wide, u32::MAX);
+    use HomingStart as H;
+    // (switch, parameters) of each preparation step after `start(0)`.
+    let to_backoff = [(true, plain)];
+    let to_backoff_anchored = [(true, plain), (false, plain)];
+    let to_release = [(true, plain), (false, plain), (false, plain), (true, plain)];
+    let mut steps: Vec<(bool, HomingParams<S>)> = Vec::new();
+    match start {
+        H::Idle | H::Waiting => {}
+        H::FastSeek => steps.push((false, seek_v)),
+        H::BackOff => steps.extend(to_backoff.iter().copied().chain([(true, away_v)])),
+        H::BackOffAnchored => steps.extend(to_backoff.iter().copied().chain([(false, away_v)])),
+        H::SlowSeek => steps.extend(to_backoff_anchored.iter().copied().chain([(false, seek_v)])),
+        H::Release => steps.extend(to_release.iter().copied().chain([(true, away_v)])),
+        H::ReleaseAnchored => steps.extend(to_release.iter().copied().chain([(false, away_v)])),
+        H::Settle => {
+            steps.extend(to_release.iter().copied().chain([(false, away_v), (false, prep(z, z, z, u32::MAX))]))
+        }
+        H::Done => steps.extend(to_release.iter().copied().chain([
+            (false, plain),
+            (false, plain),
+            (false, prep(z, z, wide, 0)),
+        ])),
+    }
+    let mut h = AxisHoming::<S>::default();
+    if start != H::Idle {
+        h.reset(true);
+    }
+    if !matches!(start, H::Idle | H::Waiting) {
+        h.start(z);
+    }
+    for (switch, p) in &steps {
+        h.step(*switch, z, p);
+    }
+    let reached = h.phase() == start.phase();
+    let vel = h.velocity();
+    // The step under proof: the joint's parameters (free; the property
+    // states their bounds), every switch and position, the timeout and the
+    // settle time reached or not.
+    let timed_out = start.moving() && src.flag("timed out");
+    let settled = start == H::Settle && src.flag("settled");
+    let params = HomingParams {
+        fast_toward: src.scalar("fast_toward"),
+        slow_toward: src.scalar("slow_toward"),
+        backoff: src.scalar("backoff"),
+        timeout_ticks: if timed_out { 0 } else { u32::MAX },
+        dv: src.scalar("dv"),
+        max_travel: src.scalar("max_travel"),
+        phase_travel: src.scalar("phase_travel"),
+        settle_ticks: if settled { 0 } else { u32::MAX },
+    };
+    let switch = src.flag("switch");
+    let x = src.scalar("x");
+    let out = h.step(switch, x, &params).velocity;
+    HomingCase { start, v, params, vel, out, vel_after: h.velocity(), reached }
+}
+
+/// The Homing candidate: one `AxisHoming::step` (the kernel's own, through
+/// [`homing_gate_case`]) from every phase at every velocity
+/// `|vel| <= vmax`. Preconditions: that velocity bound (the homing ramp's
+/// own: an axis's velocity is zero after `reset` and `Default`, and only
+/// `step` changes it, which this property shows keeps the bound);
+/// `|fast_toward| <= vmax`, `|slow_toward| <= vmax`, `dv` finite and
+/// `>= 0` (`config::check`: `0 < slow <= fast <= max_velocity`,
+/// `max_acceleration > 0`; each a signed `S::from_f32` of those). Proves
+/// the output and the new velocity finite and within `vmax`, and that the
+/// preparation reached its phase with velocity `v` for every
+/// `|v| <= vmax` (zeros of either sign compared equal).
+pub fn gate_homing<S: Sym>(pre: Pre) -> Vec<B> {
+    let vmax = gate_vmax::<S>();
+    let c = homing_gate_case::<S>(&mut Symbolic);
+    let p = &c.params;
+    if pre.last_output {
+        within(c.vel, vmax.neg(), vmax).assume();
+    }
+    if pre.config {
+        B::all(&[
+            within(p.fast_toward, vmax.neg(), vmax),
+            within(p.slow_toward, vmax.neg(), vmax),
+            p.dv.t_finite(),
+            S::ZERO.t_le(p.dv),
+        ])
+        .assume();
+    }
+    let mut props = vec![within(c.out, vmax.neg(), vmax)];
+    // (The new velocity is mostly the output's own term: checked once.)
+    if c.vel_after.id() != c.out.id() {
+        props.push(within(c.vel_after, vmax.neg(), vmax));
+    }
+    if c.start.moving() {
+        props.push(within(c.v, vmax.neg(), vmax).implies(c.vel.t_eq(c.v)));
+    }
+    if !c.reached {
+        props.push(B::FALSE);
+    }
+    props
 }

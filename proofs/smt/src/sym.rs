@@ -58,6 +58,11 @@ impl B {
     pub fn decide(self) -> bool {
         ctx::decide(self.0)
     }
+    /// This term's outcome on the current path, both outcomes explored
+    /// without a feasibility check ([`ctx::branch`]).
+    pub fn branch(self) -> bool {
+        ctx::branch(self.0)
+    }
 }
 
 /// The `Wide` type of the symbolic scalars: the conversions that use it

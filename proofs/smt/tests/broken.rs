@@ -202,3 +202,180 @@ fn a_homing_ramp_accelerating_by_twice_dv_is_refuted() {
     let v = toward_twice(vel, want, dv);
     assert!(!(v >= vel - dv && v <= vel + dv), "replayed on f32: vel {vel}, want {want}, dv {dv}: {v}");
 }
+
+// ------------------------------------------------- the SR-2 output gate --
+//
+// Each gate property (`props::gate_*`) fails when one of its preconditions
+// is dropped or the code it composes is broken; each counterexample,
+// replayed on the concrete type through the same generic code, gives an
+// output the gate would fault.
+
+use props::{Inputs, Pre};
+
+/// `x` finite and within `[-vmax, vmax]`: what the gate lets through.
+fn passes<S: Scalar>(x: S, vmax: S) -> bool {
+    x.is_finite() && x.abs() <= vmax
+}
+
+/// A counterexample's values, read as the concrete type `T`.
+struct Replay<'a, T> {
+    cex: &'a Counterexample,
+    of: fn(&Counterexample, &str) -> T,
+}
+
+impl<T> Inputs<T> for Replay<'_, T> {
+    fn scalar(&mut self, name: &str) -> T {
+        (self.of)(self.cex, name)
+    }
+    fn flag(&mut self, name: &str) -> bool {
+        value(self.cex, name) == "true"
+    }
+}
+
+/// A control law without its saturation: the raw `ff + kp e`.
+fn law_unsaturated<S: Scalar>(sp: S, ff: S, x: S, kp: S, _vmax: S, _deadband: S) -> (S, bool) {
+    (ff.plus(kp.times(sp.minus(x))), true)
+}
+
+const NO_LAST_OUTPUT_BOUND: Pre = Pre { last_output: false, config: true };
+const NO_CONFIG_BOUND: Pre = Pre { last_output: true, config: false };
+
+/// Replays `gate_operational`'s counterexample with `law` on `T`: the
+/// candidate, the kernel's law's candidate, `vmax`, `prev`, `accel_step`.
+fn replay_operational<T: Scalar>(
+    cex: &Counterexample,
+    of: fn(&Counterexample, &str) -> T,
+    law: props::Law<T>,
+) -> [T; 5] {
+    let g = |n| of(cex, n);
+    let args = [g("setpoint"), g("feed_forward"), g("estimate"), g("kp"), g("vmax"), g("deadband")];
+    let (prev, accel_step) = (g("prev"), g("accel_step"));
+    let kernel_law: props::Law<T> = kernel::control::control_law;
+    [
+        props::operational_candidate(law, args, prev, accel_step),
+        props::operational_candidate(kernel_law, args, prev, accel_step),
+        g("vmax"),
+        prev,
+        accel_step,
+    ]
+}
+
+#[test]
+#[ignore = "needs the z3 binary: proofs/smt/run.sh runs it"]
+fn the_operational_gate_fails_without_its_preconditions_or_the_law_s_saturation() {
+    // The last output above vmax: the clamp keeps the output near it.
+    let cex = refuted_blind(|_| props::gate_operational::<SymF32>(kernel::control::control_law, NO_LAST_OUTPUT_BOUND));
+    let [out, _, vmax, prev, _] = replay_operational::<f32>(&cex, f32_of, kernel::control::control_law);
+    assert!(!passes(prev, vmax) && !passes(out, vmax), "f32: prev {prev}, out {out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_operational::<SymFx>(kernel::control::control_law, NO_LAST_OUTPUT_BOUND));
+    let [out, _, vmax, prev, _] = replay_operational::<I8F24>(&cex, fx_of, kernel::control::control_law);
+    assert!(!passes(prev, vmax) && !passes(out, vmax), "I8F24: prev {prev}, out {out}, vmax {vmax}");
+    // A negative acceleration step (config::check requires max_acceleration > 0).
+    let cex = refuted_blind(|_| props::gate_operational::<SymFx>(kernel::control::control_law, NO_CONFIG_BOUND));
+    let [out, _, vmax, _, step] = replay_operational::<I8F24>(&cex, fx_of, kernel::control::control_law);
+    assert!(step < I8F24::ZERO && !passes(out, vmax), "I8F24: step {step}, out {out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_operational::<SymF32>(kernel::control::control_law, NO_CONFIG_BOUND));
+    let [out, _, vmax, _, step] = replay_operational::<f32>(&cex, f32_of, kernel::control::control_law);
+    let step_ok = step >= 0.0 && step.is_finite();
+    assert!(!step_ok && !passes(out, vmax), "f32: step {step}, out {out}, vmax {vmax}");
+    // A law that does not saturate: the kernel's law keeps the same inputs in.
+    let cex = refuted_blind(|_| props::gate_operational::<SymFx>(law_unsaturated, Pre::ALL));
+    let [out, kernel_out, vmax, ..] = replay_operational::<I8F24>(&cex, fx_of, law_unsaturated);
+    assert!(!passes(out, vmax) && passes(kernel_out, vmax), "I8F24: out {out}, kernel {kernel_out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_operational::<SymF32>(law_unsaturated, Pre::ALL));
+    let [out, kernel_out, vmax, ..] = replay_operational::<f32>(&cex, f32_of, law_unsaturated);
+    assert!(!passes(out, vmax) && passes(kernel_out, vmax), "f32: out {out}, kernel {kernel_out}, vmax {vmax}");
+}
+
+/// A soft-stop output that follows the braking command within `prev +-
+/// step` without clamping it into the envelope (between zero and `prev`).
+fn stop_output_unenveloped<S: Scalar>(v0: S, scale: S, prev: S, follow: Option<(S, S)>, done: bool) -> S {
+    let env = v0.times(scale).clamp_between(S::ZERO, prev);
+    let env = S::select(env.is_finite(), env, S::ZERO);
+    let out = match follow {
+        Some((v, step)) => v.max(prev.minus(step)).min(prev.plus(step)),
+        None => env,
+    };
+    S::select(done, S::ZERO, out)
+}
+
+/// Replays `gate_stopping`'s counterexample with `f` on `T`: the
+/// candidate, the kernel's candidate, `vmax`, `prev`.
+fn replay_stopping<T: Scalar>(
+    cex: &Counterexample,
+    of: fn(&Counterexample, &str) -> T,
+    f: props::StopOutput<T>,
+) -> [T; 4] {
+    let g = |n| of(cex, n);
+    let follow = (value(cex, "track") == "true").then(|| (g("brake"), g("stop_step")));
+    let done = value(cex, "done") == "true";
+    let (v0, scaled_left, prev) = (g("v0"), g("scaled_left"), g("prev"));
+    let kernel_f: props::StopOutput<T> = kernel::ramp::stop_output;
+    [
+        props::stopping_candidate(f, v0, scaled_left, prev, follow, done),
+        props::stopping_candidate(kernel_f, v0, scaled_left, prev, follow, done),
+        g("vmax"),
+        prev,
+    ]
+}
+
+#[test]
+#[ignore = "needs the z3 binary: proofs/smt/run.sh runs it"]
+fn the_stopping_gate_fails_without_its_precondition_or_the_envelope() {
+    let cex = refuted_blind(|_| props::gate_stopping::<SymF32>(kernel::ramp::stop_output, NO_LAST_OUTPUT_BOUND));
+    let [out, _, vmax, prev] = replay_stopping::<f32>(&cex, f32_of, kernel::ramp::stop_output);
+    assert!(!passes(prev, vmax) && !passes(out, vmax), "f32: prev {prev}, out {out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_stopping::<SymFx>(kernel::ramp::stop_output, NO_LAST_OUTPUT_BOUND));
+    let [out, _, vmax, prev] = replay_stopping::<I8F24>(&cex, fx_of, kernel::ramp::stop_output);
+    assert!(!passes(prev, vmax) && !passes(out, vmax), "I8F24: prev {prev}, out {out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_stopping::<SymF32>(stop_output_unenveloped, Pre::ALL));
+    let [out, kernel_out, vmax, _] = replay_stopping::<f32>(&cex, f32_of, stop_output_unenveloped);
+    assert!(!passes(out, vmax) && passes(kernel_out, vmax), "f32: out {out}, kernel {kernel_out}, vmax {vmax}");
+    let cex = refuted_blind(|_| props::gate_stopping::<SymFx>(stop_output_unenveloped, Pre::ALL));
+    let [out, kernel_out, vmax, _] = replay_stopping::<I8F24>(&cex, fx_of, stop_output_unenveloped);
+    assert!(!passes(out, vmax) && passes(kernel_out, vmax), "I8F24: out {out}, kernel {kernel_out}, vmax {vmax}");
+}
+
+fn refuted_blind_constants(build: fn(usize) -> Vec<smt::sym::B>) -> Counterexample {
+    let o = ctx::session(|| ctx::explore_blind_evaluating_constants(|| build(0).into_iter().map(|b| b.0).collect()));
+    println!("{} paths, {} checks, {:?}: {:?}", o.paths, o.checks, o.time, o.counterexample);
+    o.counterexample.expect("a broken precondition must give a counterexample")
+}
+
+/// Replays `gate_homing`'s counterexample on `T` (the kernel's own
+/// `AxisHoming::step`): whether the output and the new velocity pass the
+/// gate, and the velocity before the step, the parameters and `vmax`.
+fn replay_homing<T: Scalar>(
+    cex: &Counterexample,
+    of: fn(&Counterexample, &str) -> T,
+) -> (bool, props::HomingCase<T>, T) {
+    let c = props::homing_gate_case::<T>(&mut Replay { cex, of });
+    let vmax = of(cex, "vmax");
+    assert!(c.reached, "the preparation reached {:?}", c.start);
+    (passes(c.out, vmax) && passes(c.vel_after, vmax), c, vmax)
+}
+
+#[test]
+#[ignore = "needs the z3 binary: proofs/smt/run.sh runs it"]
+fn the_homing_gate_fails_without_its_preconditions() {
+    // A velocity above vmax before the step (the ramp's own bound dropped).
+    let cex = refuted_blind_constants(|_| props::gate_homing::<SymFx>(NO_LAST_OUTPUT_BOUND));
+    let (ok, c, vmax) = replay_homing::<I8F24>(&cex, fx_of);
+    assert!(!ok && !passes(c.vel, vmax), "I8F24: {c:?}, vmax {vmax}");
+    let cex = refuted_blind_constants(|_| props::gate_homing::<SymF32>(NO_LAST_OUTPUT_BOUND));
+    let (ok, c, vmax) = replay_homing::<f32>(&cex, f32_of);
+    assert!(!ok && !passes(c.vel, vmax), "f32: {c:?}, vmax {vmax}");
+    // A homing speed above vmax or a negative step (config::check's bounds
+    // dropped).
+    let config_ok = |c: &props::HomingCase<I8F24>, vmax| {
+        passes(c.params.fast_toward, vmax) && passes(c.params.slow_toward, vmax) && c.params.dv >= I8F24::ZERO
+    };
+    let cex = refuted_blind_constants(|_| props::gate_homing::<SymFx>(NO_CONFIG_BOUND));
+    let (ok, c, vmax) = replay_homing::<I8F24>(&cex, fx_of);
+    assert!(!ok && passes(c.vel, vmax) && !config_ok(&c, vmax), "I8F24: {c:?}, vmax {vmax}");
+    let cex = refuted_blind_constants(|_| props::gate_homing::<SymF32>(NO_CONFIG_BOUND));
+    let (ok, c, vmax) = replay_homing::<f32>(&cex, f32_of);
+    let p = &c.params;
+    let config_ok = passes(p.fast_toward, vmax) && passes(p.slow_toward, vmax) && p.dv.is_finite() && p.dv >= 0.0;
+    assert!(!ok && passes(c.vel, vmax) && !config_ok, "f32: {c:?}, vmax {vmax}");
+}
