@@ -88,7 +88,9 @@ if [ "${QUICK:-0}" != "1" ]; then
     cargo run -p exhaustive --release --locked --bin exhaustive
 
     # The full configuration (Kernel<Fx>, the whole alphabet, motion targets
-    # that land in one tick) runs to completion (model-checked), and so do
+    # that land in one tick and a 2 mrad one sent only from rest, so that it
+    # reaches the command timeout's soft stop, SoftEstop, a cruising and a
+    # braking set-point) runs to completion (model-checked), and so do
     # the reduced ones (Kernel<Fx> small and homing, Kernel<f32> tiny). The
     # stream configuration (the full one with 2 mrad targets, whose
     # set-points' continuous state does not finish) is explored breadth

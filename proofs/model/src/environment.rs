@@ -17,6 +17,11 @@ pub(crate) enum Req {
     Enable,
     MotionNear,
     MotionHere,
+    /// The full configuration's third valid target, `NEAR_STREAM` below
+    /// the homed arm: a motion toward it accelerates, cruises and brakes
+    /// over several ticks. Offered only while the set-points are at rest or
+    /// already move toward it (`Supervisor::choices`).
+    MotionFar,
     MotionOutOfLimits,
 }
 
@@ -65,6 +70,21 @@ pub(crate) const REQUESTS_FULL: [Option<Req>; 9] = [
     Some(Req::Enable),
     Some(Req::MotionNear),
     Some(Req::MotionHere),
+    Some(Req::MotionOutOfLimits),
+];
+/// The full configuration's requests: `REQUESTS_FULL` and the 2 mrad target
+/// (`Req::MotionFar`), which `Supervisor::choices` offers only while the
+/// set-points are at rest or already move toward it.
+pub(crate) const REQUESTS_FULL_FAR: [Option<Req>; 10] = [
+    None,
+    Some(Req::Home),
+    Some(Req::HomeJoint(0)),
+    Some(Req::HomeJoint(5)),
+    Some(Req::HomeJoint(9)),
+    Some(Req::Enable),
+    Some(Req::MotionNear),
+    Some(Req::MotionHere),
+    Some(Req::MotionFar),
     Some(Req::MotionOutOfLimits),
 ];
 pub(crate) const REQUESTS_SMALL: [Option<Req>; 5] =
@@ -129,6 +149,7 @@ impl<S: ModelScalar> Supervisor<S> {
             Req::Enable => Request::Enable(self.authority.enable()),
             Req::MotionHere => Request::Motion(t(self.here)),
             Req::MotionNear => Request::Motion(t(self.here.map(|x| x.minus(self.near)))),
+            Req::MotionFar => Request::Motion(t(self.here.map(|x| x.minus(S::from_f32(crate::model::NEAR_STREAM))))),
             Req::MotionOutOfLimits => Request::Motion(t(self.out_of_limits)),
         }
     }
@@ -172,6 +193,8 @@ impl<S: ModelScalar> Supervisor<S> {
             &REQUESTS_SMALL
         } else if s.k.state() == State::Homing {
             &REQUESTS_HOMING
+        } else if self.far {
+            &REQUESTS_FULL_FAR
         } else {
             &REQUESTS_FULL
         };
@@ -186,9 +209,21 @@ impl<S: ModelScalar> Supervisor<S> {
         } else {
             &PERTURBATIONS
         };
+        // The full configuration's re-targeting restriction: while the
+        // set-points move toward the 2 mrad target, no other valid target is
+        // sent; while they move toward one of the 20 urad targets, the 2 mrad
+        // one is not sent. A 2 mrad re-target of a moving set-point (the
+        // stream configuration's growth) is never offered; every motion
+        // toward the 2 mrad target starts from rest and runs its course,
+        // re-sent or left to the command timeout.
+        let offered = |r: &Option<Req>| match r {
+            Some(Req::MotionFar) => s.far || s.k.setpoints_at_rest(),
+            Some(Req::MotionNear | Req::MotionHere) => !s.far,
+            _ => true,
+        };
         for &pressed in &masks {
             for &perturb in perturbations {
-                for &req in reqs {
+                for &req in reqs.iter().filter(|r| !self.far || offered(r)) {
                     actions.push(Action { req, perturb, pressed });
                 }
             }

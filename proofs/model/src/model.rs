@@ -23,6 +23,9 @@ pub(crate) struct Supervisor<S: Scalar> {
     pub(crate) near: S,
     /// The full configuration: valid targets `NEAR_LANDING` apart.
     pub(crate) landing: bool,
+    /// The full configuration: a third valid target `NEAR_STREAM` below
+    /// `here` (`Req::MotionFar`), sent only from rest or to re-send it.
+    pub(crate) far: bool,
     /// A target just outside J1's limits, within a stream sample's reach of
     /// the homed arm (so only the limits can refuse it).
     pub(crate) out_of_limits: [S; AXES],
@@ -72,6 +75,12 @@ pub(crate) const NEAR_LANDING: f32 = 0.000_02;
 /// cruises and brakes over several ticks.
 pub(crate) const NEAR_STREAM: f32 = 0.002;
 
+/// `--no-far`: the full configuration without its 2 mrad target (only the
+/// 20 urad ones), to show that the `sometimes` properties the target is
+/// there for (the command timeout's soft stop, SoftEstop, a cruising and a
+/// braking set-point) fail where it is not offered.
+pub(crate) static NO_FAR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// The model of configuration `cfg` (full, stream, small, tiny, homing).
 pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
     let (small, tiny, homing) = (matches!(cfg, "small" | "tiny"), cfg == "tiny", cfg == "homing");
@@ -95,7 +104,8 @@ pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
         if here[0].minus(lo) < hi.minus(here[0]) { lo.minus(S::from_f32(0.01)) } else { hi.plus(S::from_f32(0.01)) };
     let landing = cfg == "full";
     let near = S::from_f32(if landing { NEAR_LANDING } else { NEAR_STREAM });
-    Supervisor { init, authority, here, near, landing, out_of_limits, small, tiny, homing }
+    let far = landing && !NO_FAR.load(std::sync::atomic::Ordering::Relaxed);
+    Supervisor { init, authority, here, near, landing, far, out_of_limits, small, tiny, homing }
 }
 
 impl<S: ModelScalar> Model for Supervisor<S> {
@@ -110,6 +120,7 @@ impl<S: ModelScalar> Model for Supervisor<S> {
             j1: J1 { seen: false, reference: 0, run: 0 },
             ramp: None,
             group_waited: false,
+            far: false,
             ticks: 0,
         }]
     }
@@ -174,6 +185,60 @@ mod tests {
                 "{cfg}: set-points {:?}, target {target:?}",
                 o.status.setpoint
             );
+        }
+    }
+
+    /// The full configuration's 2 mrad target (`Req::MotionFar`) is what its
+    /// `sometimes` properties of the command timeout, cruising and braking
+    /// need: re-sent every tick, a motion toward it from rest runs longer
+    /// than the 3 ms command timeout and some set-point cruises and brakes
+    /// on the way (`Supervisor::ahead`); sent once, the timeout soft-stops
+    /// it and the ramp latches SoftEstop. A motion toward the 20 urad target
+    /// (`Req::MotionNear`) does none of it.
+    #[test]
+    fn the_far_target_cruises_brakes_and_meets_the_command_timeout() {
+        use crate::environment::{Perturb, Req};
+        use crate::state::{St, J1};
+        let m = supervisor::<Fx>("full");
+        assert!(m.far);
+        let still = m.sense(Perturb::None, 0);
+        let st = |k: &Kernel<Fx>| St {
+            k: k.clone(),
+            violated: 0,
+            enabled: false,
+            j1: J1 { seen: true, reference: proofs::setup::COUNTS[0], run: 0 },
+            ramp: None,
+            group_waited: false,
+            far: true,
+            ticks: 0,
+        };
+        for (req, far) in [(Req::MotionFar, true), (Req::MotionNear, false)] {
+            let mut k = homed(&m);
+            let (mut ticks, mut cruises, mut brakes) = (0, false, false);
+            while ticks < 100 {
+                let o = k.tick(&still, Some(m.request(req)));
+                assert_eq!(o.status.state, State::Operational, "{req:?}");
+                ticks += 1;
+                if k.setpoints_at_rest() {
+                    break;
+                }
+                if let Some(a) = m.ahead(&st(&k)) {
+                    (cruises, brakes) = (cruises || a.cruises, brakes || a.brakes);
+                }
+            }
+            assert!(k.setpoints_at_rest(), "{req:?}: no arrival in 100 ticks");
+            println!("{req:?}, re-sent every tick: arrives after {ticks} ticks; cruises {cruises}, brakes {brakes}");
+            let timeout = MODEL_CONFIG.command_timeout_ms * MODEL_CONFIG.tick_hz / 1000;
+            assert_eq!((ticks > timeout, cruises, brakes), (far, far, far), "{req:?}: {ticks} ticks");
+            // Sent once: the timeout soft-stops a moving arm (far only), then
+            // SoftEstop after the ramp.
+            let mut k = homed(&m);
+            k.tick(&still, Some(m.request(req)));
+            let mut states = Vec::new();
+            for _ in 0..12 {
+                states.push(k.tick(&still, None).status.state);
+            }
+            assert_eq!(states.contains(&State::SoftEstop), far, "{req:?}: {states:?}");
         }
     }
 }

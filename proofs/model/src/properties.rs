@@ -2,6 +2,7 @@
 //! ones that show what the exploration reaches.
 
 use crate::checks::check_properties;
+use crate::environment::Perturb;
 use crate::identity::ModelScalar;
 use crate::model::Supervisor;
 use crate::state::St;
@@ -20,7 +21,43 @@ pub(crate) fn out_of_step(phases: &[Phase; AXES]) -> bool {
     })
 }
 
+/// What the set-points do over the next two ticks without a request or a
+/// perturbation (both offered in every Operational state): some axis
+/// cruises (two equal non-zero steps) or brakes (a second step shorter than
+/// the first, same direction, not zero), and the set-points have not
+/// arrived after them (so neither step is the landing). `None` unless the
+/// kernel stays Operational.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Ahead {
+    pub(crate) cruises: bool,
+    pub(crate) brakes: bool,
+}
+
 impl<S: ModelScalar> Supervisor<S> {
+    /// The set-points' next two ticks from `s` (see `Ahead`).
+    pub(crate) fn ahead(&self, s: &St<S>) -> Option<Ahead> {
+        if s.k.state() != State::Operational || s.k.setpoints_at_rest() {
+            return None;
+        }
+        let mut k = s.k.clone();
+        let still = self.sense(Perturb::None, 0);
+        let sp0 = k.status(0).setpoint;
+        let sp1 = k.tick(&still, None).status.setpoint;
+        let o2 = k.tick(&still, None);
+        if o2.status.state != State::Operational || k.setpoints_at_rest() {
+            return None;
+        }
+        let sp2 = o2.status.setpoint;
+        let (mut cruises, mut brakes) = (false, false);
+        for i in 0..AXES {
+            let (d1, d2) = (sp1[i].minus(sp0[i]), sp2[i].minus(sp1[i]));
+            let same_way = d2 != S::ZERO && (d1 > S::ZERO) == (d2 > S::ZERO);
+            cruises |= same_way && d1 == d2;
+            brakes |= same_way && d2.abs() < d1.abs();
+        }
+        Some(Ahead { cruises, brakes })
+    }
+
     /// Every property of this configuration: the transition checks, then
     /// the state properties.
     pub(crate) fn state_properties(&self) -> Vec<Property<Self>> {
@@ -67,10 +104,22 @@ impl<S: ModelScalar> Supervisor<S> {
             ]);
             return p;
         }
-        // (The full configuration's motions end before the command timeout
-        // expires, so it never soft-stops on it: `model::NEAR_LANDING`.)
-        if !self.landing {
-            p.push(Property::<Self>::sometimes("soft E-stop latched", |_, s| s.k.state() == State::SoftEstop));
+        p.push(Property::<Self>::sometimes("soft E-stop latched", |_, s| s.k.state() == State::SoftEstop));
+        // The full configuration's 2 mrad target is there for these (its
+        // 20 urad motions land before the command timeout expires and never
+        // cruise: `--config full --no-far` fails them).
+        if self.landing {
+            p.extend([
+                Property::<Self>::sometimes("the command timeout soft-stopped a moving arm", |_, s| {
+                    s.ramp.is_some_and(|(k, v0)| k == 1 && !zero(&v0))
+                }),
+                Property::<Self>::sometimes("a set-point cruises (two equal steps, not landing)", |m, s| {
+                    m.ahead(s).is_some_and(|a| a.cruises)
+                }),
+                Property::<Self>::sometimes("a set-point brakes (a shorter step, not landing)", |m, s| {
+                    m.ahead(s).is_some_and(|a| a.brakes)
+                }),
+            ]);
         }
         p.extend([
             Property::<Self>::sometimes("moving in operational", |_, s| {

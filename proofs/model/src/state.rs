@@ -37,6 +37,12 @@ pub(crate) struct St<S: Scalar> {
     /// a sibling still moving (for reachability only: the kernel's future
     /// does not depend on it).
     pub(crate) group_waited: bool,
+    /// The set-points move toward the 2 mrad target (`Req::MotionFar`): a
+    /// motion toward it was the last accepted and they are not yet at
+    /// rest. Decided by the kernel's state (its set-points' targets, which
+    /// its `Hash` includes, and whether they rest), so hashing it adds no
+    /// state; it decides which targets `Supervisor::choices` offers.
+    pub(crate) far: bool,
     /// Ticks from power-on on the path that reached this state (for the
     /// census only: not part of the state's identity, so a state keeps the
     /// count of the path that reached it first, the shortest under
@@ -55,7 +61,7 @@ impl<S: ModelScalar> St<S> {
 impl<S: ModelScalar> Hash for St<S> {
     fn hash<H: Hasher>(&self, h: &mut H) {
         S::hash_kernel(&self.k, h);
-        (self.violated, self.enabled, self.j1, self.group_waited).hash(h);
+        (self.violated, self.enabled, self.j1, self.group_waited, self.far).hash(h);
         // The ramp's start equals the kernel's Stopping v0 (hashed above);
         // its tick is the kernel's k + 1.
         self.ramp.map(|(k, _)| k).hash(h);

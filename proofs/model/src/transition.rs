@@ -246,10 +246,11 @@ impl<S: ModelScalar> Supervisor<S> {
         // positions.
         let enabled = has(&|e| matches!(e, Event::Enabled(_)));
         c.check(Check::EnableSync, enabled, (0..AXES).all(|i| o.status.setpoint[i] == o.status.position[i]));
-        let motion = matches!(req, Some(Req::MotionNear | Req::MotionHere | Req::MotionOutOfLimits));
+        let motion = matches!(req, Some(Req::MotionNear | Req::MotionHere | Req::MotionFar | Req::MotionOutOfLimits));
         let rejected = has(&|e| matches!(e, Event::Rejected { request: RequestKind::Motion, .. }));
         c.check(Check::MotionOutsideOperational, motion && before != State::Operational, rejected);
         c.check(Check::OutOfLimits, req == Some(Req::MotionOutOfLimits), rejected);
+        n.far = if motion && !rejected { req == Some(Req::MotionFar) } else { s.far } && !n.k.setpoints_at_rest();
         // SR-8: armed only by an accepted motion, disarmed by homing and
         // enable.
         c.check(Check::ArmedAfterHoming, has(&|e| matches!(e, Event::HomingDone { .. })), !o.status.timeout_armed);
