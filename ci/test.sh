@@ -102,7 +102,7 @@ if [ "${QUICK:-0}" != "1" ]; then
     # coupling lemma on every reachable state of the homing configuration
     # (a second run of it; it records no evidence, so model.tsv stays the
     # first command's).
-    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full, small, homing and tiny to completion, stream to depth 44 (every 42-tick path); 18 kernel mutants; the homing group's coupling lemma)"
+    step "model check (stateright over the real Kernel<Fx> and Kernel<f32>: full, small, homing and tiny to completion, stream to depth 44 (every 42-tick path); 19 kernel mutants; the homing group's coupling lemma)"
     cargo run -p model --release --locked -- --depth 44
     proofs/model/mutants.sh
     env -u EVIDENCE_DIR cargo run -p model --release --locked -- --config homing --coupling

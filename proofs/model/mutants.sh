@@ -67,6 +67,12 @@ mutant second-fault-overwrites-the-first kernel/src/kernel/supervisor.rs \
     '            if self.mode != Mode::Fault {' \
     '            if true {' \
     small "SR-5: a latched fault's reason changed"
+# A latch that something other than <ENABLE> leaves: a kernel whose
+# <HOME> clears a SoftEstop (to Unhomed, then homes).
+mutant home-leaves-soft-estop kernel/src/kernel/homing_seq.rs \
+    '        if let Some(r) = self.homing_refusal() {' \
+    '        if self.mode == super::supervisor::Mode::SoftEstop { self.mode = super::supervisor::Mode::Unhomed; } if let Some(r) = self.homing_refusal() {' \
+    small 'SR-5: a latch left without an accepted enable'
 mutant enable-ignores-a-present-cause kernel/src/kernel/intake.rs \
     '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)) {' \
     '        if let Some(cause) = detected.or_else(|| self.present_cause(sense)).filter(|_| false) {' \
