@@ -1,7 +1,8 @@
 //! SAFETY.md's traceability matrix is checked: every requirement has a row;
 //! every row has a Kani harness or executed evidence of a named kind; every
-//! harness named exists in `proofs/src`; and every harness in `proofs/src`
-//! traces to some requirement.
+//! harness named exists in `proofs/src`; every harness in `proofs/src`
+//! traces to some requirement; and every test the "tests" column names
+//! exists in the repository.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -91,6 +92,129 @@ fn the_checker_rejects_a_missing_harness() {
     // among the harnesses found.
     assert!(!harnesses().contains("this_harness_does_not_exist"));
     assert!(harnesses().contains("from_one_axis_operational_state_fx"));
+}
+
+/// Every `.rs` file of the repository (its three workspaces), `target/`
+/// and hidden directories left out.
+fn rust_sources(dir: &Path, out: &mut String) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        let name = e.file_name().to_string_lossy().to_string();
+        if name.starts_with('.') || name == "target" {
+            continue;
+        }
+        if p.is_dir() {
+            rust_sources(&p, out);
+        } else if name.ends_with(".rs") {
+            out.push_str(&std::fs::read_to_string(&p).unwrap_or_default());
+            out.push('\n');
+        }
+    }
+}
+
+/// The names in the "tests" column of SAFETY.md's matrix that name nothing
+/// in `sources`. A backticked lower-case path is checked when it names a
+/// test: its last segment contains `_` and is defined as `fn NAME`,
+/// `end_to_end!(NAME` (the proofs' end-to-end tests) or a field `pub
+/// NAME:` (the configuration's wiring flags); `NAME_*` needs one such name
+/// starting with `NAME_` (a test's variants); a leading module of
+/// `module::*::name` or `module::*` must exist as `module.rs`, `module/` or
+/// `mod module`. Rustdoc attributes (`compile_fail`) name a kind of doc
+/// test, not a test, and are skipped.
+fn unknown_test_names(safety: &str, sources: &str, files: &BTreeSet<String>) -> Vec<String> {
+    let defines = |name: &str, prefix: bool| {
+        let tail = if prefix { "" } else { "(" };
+        ["fn ", "end_to_end!(", "pub "].iter().any(|lead| {
+            let needle = format!("{lead}{name}");
+            sources.match_indices(&needle).any(|(i, _)| {
+                let after = &sources[i + needle.len()..];
+                prefix
+                    || after.starts_with(tail)
+                    || after.starts_with('<')
+                    || after.starts_with(',')
+                    || (*lead == "pub " && after.starts_with(':'))
+            })
+        })
+    };
+    let module =
+        |m: &str| files.contains(m) || sources.contains(&format!("mod {m} ")) || sources.contains(&format!("mod {m};"));
+    let mut bad = Vec::new();
+    for r in rows(safety, "## 6. Traceability and evidence") {
+        let (Some(id), Some(tests)) = (r.first(), r.get(3)) else { continue };
+        for name in backticked(tests) {
+            let path_like = !name.is_empty()
+                && name
+                    .chars()
+                    .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || c == ':' || c == '*');
+            if !path_like || name == "compile_fail" {
+                continue;
+            }
+            let parts: Vec<&str> = name.split("::").collect();
+            if parts.len() > 1 && parts[1] == "*" && !module(parts[0]) {
+                bad.push(format!("{id}: `{name}`: no module `{}`", parts[0]));
+                continue;
+            }
+            let last = parts.last().copied().unwrap_or("");
+            if last == "*" || !last.contains('_') {
+                continue;
+            }
+            let ok = match last.strip_suffix('*') {
+                Some(stem) => defines(stem, true),
+                None => defines(last, false),
+            };
+            if !ok {
+                bad.push(format!("{id}: `{name}` names no test, end-to-end test or field in the repository"));
+            }
+        }
+    }
+    bad
+}
+
+/// The module names the repository's files give (`motion.rs` -> `motion`,
+/// a directory `setup/` -> `setup`).
+fn module_files(dir: &Path, out: &mut BTreeSet<String>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        if name.starts_with('.') || name == "target" {
+            continue;
+        }
+        if e.path().is_dir() {
+            out.insert(name.clone());
+            module_files(&e.path(), out);
+        } else if let Some(stem) = name.strip_suffix(".rs") {
+            out.insert(stem.to_string());
+        }
+    }
+}
+
+#[test]
+fn every_test_the_matrix_names_exists() {
+    let safety = std::fs::read_to_string(root().join("SAFETY.md")).expect("SAFETY.md");
+    let (mut sources, mut files) = (String::new(), BTreeSet::new());
+    rust_sources(root(), &mut sources);
+    module_files(root(), &mut files);
+    let bad = unknown_test_names(&safety, &sources, &files);
+    assert!(bad.is_empty(), "SAFETY.md's tests column names tests that do not exist:\n{}", bad.join("\n"));
+}
+
+#[test]
+fn the_test_name_check_rejects_a_name_that_names_nothing() {
+    let sources = "mod faults;\nfn runaway_faults<S: Scalar>() {}\nend_to_end!(homing_is_repeatable_f32, x);\n\
+                   pub encoder_reversed: bool,\n";
+    let files: BTreeSet<String> = ["faults".to_string()].into();
+    let doc = |tests: &str| format!("## 6. Traceability and evidence\n| SR-1 | none | sampled | {tests} |\n");
+    let check = |tests: &str| unknown_test_names(&doc(tests), sources, &files);
+    assert!(check("`faults::*::runaway_faults`, `homing_is_repeatable_*`, `encoder_reversed`, `faults::*`").is_empty());
+    assert!(check("`compile_fail` doc test, `protocol` queue tests, `kernel/tests/common`").is_empty());
+    // A made-up test, a test renamed away, a prefix no variant has, a
+    // module that does not exist.
+    assert_eq!(check("`faults::*::runaway_faults_in_the_same_tick`").len(), 1);
+    assert_eq!(check("`runaway_fault`").len(), 1);
+    assert_eq!(check("`homing_is_idempotent_*`").len(), 1);
+    assert_eq!(check("`fault::*::runaway_faults`").len(), 1);
+    assert_eq!(check("`encoder_reversed_twice`").len(), 1);
 }
 
 // The safety-function layer (`docs/safety/`): hazards scored to a PL_r,
