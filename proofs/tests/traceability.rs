@@ -9,6 +9,39 @@ use std::path::Path;
 
 const KINDS: [&str; 7] = ["exhaustive", "model-checked", "sampled", "SMT", "symbolic", "build", "emulated"];
 
+/// The words a clause of an "executed here" cell starts with: the evidence
+/// kinds of docs/spec/evidence.md that run here (an enumerated slice is
+/// named as such, "tested" is a deterministic test of named cases).
+const HEADS: [&str; 8] =
+    ["exhaustive", "enumerated slice", "model-checked", "SMT", "sampled", "build", "emulated", "tested"];
+
+/// The top-level `;`-separated clauses of a cell whose first words are no
+/// evidence kind (`HEADS`): the evidence summary reads each clause's kind
+/// from its first words, so a kind named later in a clause ("proved by
+/// SMT", "the run-time test emulated") would be claimed without being
+/// checked against the run.
+fn clauses_without_kind(cell: &str) -> Vec<String> {
+    let (mut clauses, mut cur, mut depth) = (Vec::new(), String::new(), 0i32);
+    for ch in cell.chars() {
+        match ch {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            ';' if depth == 0 => {
+                clauses.push(std::mem::take(&mut cur));
+                continue;
+            }
+            _ => {}
+        }
+        cur.push(ch);
+    }
+    clauses.push(cur);
+    clauses
+        .into_iter()
+        .map(|c| c.trim().to_string())
+        .filter(|c| !c.is_empty() && !HEADS.iter().any(|h| c.starts_with(h)))
+        .collect()
+}
+
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root")
 }
@@ -74,6 +107,11 @@ fn safety_matrix_is_complete_and_every_harness_exists() {
         assert!(!executed.contains("symbolic"), "{id}: symbolic evidence cannot be executed here");
         // Kinds are claimed positively; a negated kind would be miscounted.
         assert!(!executed.contains("not model-checked"), "{id}: say what ran, not what did not");
+        let unnamed = clauses_without_kind(executed);
+        assert!(
+            unnamed.is_empty(),
+            "{id}: each clause of the executed cell starts with its kind ({HEADS:?}): {unnamed:?}"
+        );
         for h in harness {
             assert!(existing.contains(&h), "{id}: harness `{h}` does not exist in proofs/src");
             named.insert(h);
@@ -215,6 +253,17 @@ fn the_test_name_check_rejects_a_name_that_names_nothing() {
     assert_eq!(check("`homing_is_idempotent_*`").len(), 1);
     assert_eq!(check("`fault::*::runaway_faults`").len(), 1);
     assert_eq!(check("`encoder_reversed_twice`").len(), 1);
+}
+
+#[test]
+fn a_clause_that_does_not_start_with_its_kind_is_refused() {
+    assert!(clauses_without_kind("sampled (shim; a); SMT (b); enumerated slices (c); tested (d)").is_empty());
+    assert!(clauses_without_kind("emulated (twin: x; y); build (z)").is_empty());
+    assert_eq!(clauses_without_kind("sampled (a); proved by SMT (b)"), vec!["proved by SMT (b)"]);
+    assert_eq!(
+        clauses_without_kind("emulated (a); the run-time test emulated: b"),
+        vec!["the run-time test emulated: b"]
+    );
 }
 
 // The safety-function layer (`docs/safety/`): hazards scored to a PL_r,
