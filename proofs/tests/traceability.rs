@@ -1,8 +1,10 @@
 //! SAFETY.md's traceability matrix is checked: every requirement has a row;
 //! every row has a Kani harness or executed evidence of a named kind; every
 //! harness named exists in `proofs/src`; every harness in `proofs/src`
-//! traces to some requirement; and every test the "tests" column names
-//! exists in the repository.
+//! traces to some requirement; every test the "tests" column names exists
+//! in the repository; every clause of an "executed here" cell starts with
+//! its evidence kind; and every SMT proof a row quotes exists in
+//! `proofs/smt`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -21,25 +23,27 @@ const HEADS: [&str; 8] =
 /// SMT", "the run-time test emulated") would be claimed without being
 /// checked against the run.
 fn clauses_without_kind(cell: &str) -> Vec<String> {
-    let (mut clauses, mut cur, mut depth) = (Vec::new(), String::new(), 0i32);
+    clauses(cell).into_iter().filter(|c| !HEADS.iter().any(|h| c.starts_with(h))).collect()
+}
+
+/// The top-level `;`-separated clauses of a cell, trimmed (a `;` inside
+/// parentheses belongs to its clause), as the evidence summary splits them.
+fn clauses(cell: &str) -> Vec<String> {
+    let (mut out, mut cur, mut depth) = (Vec::new(), String::new(), 0i32);
     for ch in cell.chars() {
         match ch {
             '(' => depth += 1,
             ')' => depth -= 1,
             ';' if depth == 0 => {
-                clauses.push(std::mem::take(&mut cur));
+                out.push(std::mem::take(&mut cur));
                 continue;
             }
             _ => {}
         }
         cur.push(ch);
     }
-    clauses.push(cur);
-    clauses
-        .into_iter()
-        .map(|c| c.trim().to_string())
-        .filter(|c| !c.is_empty() && !HEADS.iter().any(|h| c.starts_with(h)))
-        .collect()
+    out.push(cur);
+    out.into_iter().map(|c| c.trim().to_string()).filter(|c| !c.is_empty()).collect()
 }
 
 fn root() -> &'static Path {
@@ -264,6 +268,53 @@ fn a_clause_that_does_not_start_with_its_kind_is_refused() {
         clauses_without_kind("emulated (a); the run-time test emulated: b"),
         vec!["the run-time test emulated: b"]
     );
+}
+
+/// The quoted names in the SMT clauses of SAFETY.md's matrix that name
+/// neither a proof of the SMT step (a string in `smt_lib`,
+/// `proofs/smt/src/lib.rs`, which holds every proof's name) nor a section
+/// heading of `smt_readme` (`proofs/smt/README.md`). The evidence summary
+/// matches SMT records to rows by requirement only; this catches a row
+/// that quotes a proof the step does not have, also where the SMT step
+/// does not run (`QUICK=1`).
+fn unknown_smt_names(safety: &str, smt_lib: &str, smt_readme: &str) -> Vec<String> {
+    let literals: Vec<&str> = smt_lib.split('"').skip(1).step_by(2).collect();
+    let headings: Vec<&str> = smt_readme.lines().filter_map(|l| l.strip_prefix("## ")).collect();
+    let mut bad = Vec::new();
+    for r in rows(safety, "## 6. Traceability and evidence") {
+        let (Some(id), Some(executed)) = (r.first(), r.get(2)) else { continue };
+        for clause in clauses(executed).iter().filter(|c| c.starts_with("SMT")) {
+            for quoted in clause.split('"').skip(1).step_by(2) {
+                let known =
+                    literals.iter().any(|l| l.contains(quoted)) || headings.iter().any(|h| h.starts_with(quoted));
+                if !known {
+                    bad.push(format!("{id}: SMT clause quotes \"{quoted}\", which is no proof of proofs/smt"));
+                }
+            }
+        }
+    }
+    bad
+}
+
+#[test]
+fn every_smt_proof_the_matrix_quotes_exists() {
+    let read = |p: &str| std::fs::read_to_string(root().join(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
+    let bad = unknown_smt_names(&read("SAFETY.md"), &read("proofs/smt/src/lib.rs"), &read("proofs/smt/README.md"));
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+#[test]
+fn the_smt_name_check_rejects_a_proof_the_step_does_not_have() {
+    let lib =
+        r#"name: "output gate, Operational: law then clamp", "interpolator step: never passes a reachable target""#;
+    let readme = "# SMT\n## The SR-2 output gate (`props::gate_*`)\n";
+    let doc = |cell: &str| format!("## 6. Traceability and evidence\n| SR-2 | none | {cell} | t |\n");
+    let ok = doc(r#"SMT (proofs: "output gate, Operational", "never passes"; `README.md`, "The SR-2 output gate")"#);
+    assert!(unknown_smt_names(&ok, lib, readme).is_empty());
+    let made_up = doc(r#"SMT (proofs: "output gate, Fault")"#);
+    assert_eq!(unknown_smt_names(&made_up, lib, readme).len(), 1);
+    // Quotes outside an SMT clause are not proof names.
+    assert!(unknown_smt_names(&doc(r#"model-checked (property "SR-2: x"); SMT (a)"#), lib, readme).is_empty());
 }
 
 // The safety-function layer (`docs/safety/`): hazards scored to a PL_r,
