@@ -2,7 +2,7 @@
 //! over the real `kernel::Kernel` (`cargo run -p model --release`).
 //!
 //! ```text
-//! model [--variant fx|f32] [--config full|stream|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census] [--coupling] [--no-merges] [--no-far]
+//! model [--variant fx|f32] [--config full|stream|small|tiny|homing] [--expect-violation NAME] [--timeout S] [--bounded S] [--depth D] [--census] [--coupling] [--no-merges] [--no-far] [--homing-restricted]
 //! ```
 //!
 //! With no arguments: the full configuration over `Kernel<Fx>` (to
@@ -26,7 +26,10 @@
 //! tick count, and the enable flag kept from the first enable on), to
 //! regenerate the figures measured without them.
 //! `--no-far` runs the full configuration without its 2 mrad target, to
-//! show the `sometimes` properties that need it fail there.
+//! show the `sometimes` properties that need it fail there;
+//! `--homing-restricted` gives it the stream configuration's alphabet
+//! during homing (with both, it is the full configuration with only its
+//! 20 urad targets and that alphabet, whose figures `README.md` gives).
 //!
 //! Properties: each transition check (`checks!`) and each state property is
 //! a property of its own, named by the requirements it checks (`SR-5: a
@@ -83,8 +86,10 @@
 //!   configuration from finishing); `proofs/model/README.md`, "The full
 //!   configuration: finite by its targets". It requires the command
 //!   timeout's soft stop of a moving arm, SoftEstop, and a cruising and a
-//!   braking set-point (`sometimes` properties); `--no-far` (the full
-//!   configuration with the 20 urad targets only) fails those four.
+//!   braking set-point (`sometimes` properties); `--no-far
+//!   --homing-restricted` (the full configuration with the 20 urad targets
+//!   only and the stream configuration's alphabet during homing) fails
+//!   those four.
 //! - Stream configuration (`--config stream`): the full one with the
 //!   2 mrad target. The set-points' positions and velocities toward the
 //!   two targets, re-targeted on any tick, and the soft-stop ramps from
@@ -92,10 +97,15 @@
 //!   (`--depth 44`: every path of up to 42 ticks from power-on; sampled
 //!   evidence). `--census` shows where its states lie (SAFETY.md gives
 //!   the figures).
-//! - The full and stream configurations, to fit their time budget, explore during homing
-//!   (where every request is refused) only no request and one motion
-//!   request, and only four perturbations (none, J1 lost, hardware fault,
-//!   J6 stray switch; not the J1 glitch and J1 stray switch).
+//! - During homing, where every request is refused and changes nothing
+//!   but the tick's events
+//!   (`model::tests::a_request_during_homing_changes_nothing_but_the_events`),
+//!   the full and stream configurations offer only no request and one
+//!   motion request. The stream configuration, to fit its time budget,
+//!   draws only four perturbations there (none, J1 lost, a tick overrun,
+//!   J6 stray switch); the full one every perturbation but the J1 glitch
+//!   and the J1 stray switch (so every hardware fault kind): a restriction,
+//!   those two multiply the homing states past the run's budget.
 //! - Reduced configuration (`--config small`, used for the f32 variant and
 //!   the mutation tests): requests none / home / enable / near target /
 //!   beyond J1's limit only,
@@ -107,7 +117,8 @@
 //!   with six perturbations (none, J1 lost, each of the three hardware
 //!   fault kinds, J6 stray switch; not the J1 glitch and the J1 stray
 //!   switch). The small configuration draws only the tick overrun; the full
-//!   and stream ones every kind outside homing.
+//!   one every kind in every state, the stream one every kind outside
+//!   homing.
 //! - Homing configuration (`--config homing`): requests none / home /
 //!   per-joint home of J1, J4, J5, J6 / enable, every subset of the seeking
 //!   axes' switches on every tick (every arrival order), perturbations none
@@ -203,6 +214,10 @@ fn main() {
     coupling::ON.store(args.iter().any(|a| a == "--coupling"), std::sync::atomic::Ordering::Relaxed);
     // `--no-merges`: the model without its own two merges (`boot`).
     boot::OFF.store(args.iter().any(|a| a == "--no-merges"), std::sync::atomic::Ordering::Relaxed);
+    // `--homing-restricted`: the full configuration with the stream
+    // configuration's alphabet during homing.
+    model::HOMING_RESTRICTED
+        .store(args.iter().any(|a| a == "--homing-restricted"), std::sync::atomic::Ordering::Relaxed);
     // `--no-far`: the full configuration without its 2 mrad target.
     model::NO_FAR.store(args.iter().any(|a| a == "--no-far"), std::sync::atomic::Ordering::Relaxed);
     // `--bounded S`: explore breadth first for at most S seconds and report

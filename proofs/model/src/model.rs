@@ -81,6 +81,12 @@ pub(crate) const NEAR_STREAM: f32 = 0.002;
 /// braking set-point) fail where it is not offered.
 pub(crate) static NO_FAR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// `--homing-restricted`: the full configuration with the stream
+/// configuration's alphabet during homing (`REQUESTS_HOMING`,
+/// `PERTURBATIONS_HOMING`, no merged requests), to regenerate the figures
+/// measured with it.
+pub(crate) static HOMING_RESTRICTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// The model of configuration `cfg` (full, stream, small, tiny, homing).
 pub(crate) fn supervisor<S: ModelScalar>(cfg: &str) -> Supervisor<S> {
     let (small, tiny, homing) = (matches!(cfg, "small" | "tiny"), cfg == "tiny", cfg == "homing");
@@ -240,5 +246,50 @@ mod tests {
             }
             assert_eq!(states.contains(&State::SoftEstop), far, "{req:?}: {states:?}");
         }
+    }
+
+    /// The fact the full and stream configurations' restriction of requests
+    /// during homing to none and one motion rests on (`REQUESTS_HOMING`):
+    /// in Homing every request of the full alphabet is
+    /// refused, with a `Rejected` event, and the tick reaches the kernel the
+    /// tick without a request reaches (every field: its `Debug` text), with
+    /// the same outputs and status. From every tick of a run with every
+    /// seeking switch arriving at once, and from the same run with no
+    /// switch ever arriving (to its homing timeout), under every
+    /// perturbation of the full configuration.
+    #[test]
+    fn a_request_during_homing_changes_nothing_but_the_events() {
+        use crate::environment::{PERTURBATIONS_FULL, REQUESTS_FULL_FAR};
+        let m = supervisor::<Fx>("full");
+        let mut compared = 0;
+        for arrive in [true, false] {
+            let mut k = m.init.clone();
+            k.tick(&still(0), None);
+            k.tick(&still(0), Some(Request::Home));
+            for _ in 0..HOMING_TICKS {
+                if k.state() != State::Homing {
+                    break;
+                }
+                let phases = k.homing_phases();
+                let seeking = phases.iter().enumerate().filter(|(_, p)| matches!(p, Phase::FastSeek | Phase::SlowSeek));
+                let limits = if arrive { seeking.fold(0u8, |m, (i, _)| m | 1 << i) } else { 0 };
+                for &p in &PERTURBATIONS_FULL {
+                    let sense = m.sense(p, limits);
+                    let mut none = k.clone();
+                    let o = none.tick(&sense, None);
+                    for &r in REQUESTS_FULL_FAR.iter().flatten() {
+                        let mut with = k.clone();
+                        let w = with.tick(&sense, Some(m.request(r)));
+                        assert_eq!(format!("{with:?}"), format!("{none:?}"), "{r:?} under {p:?}");
+                        assert_eq!((w.act, w.status), (o.act, o.status), "{r:?} under {p:?}");
+                        assert!(w.events.iter().any(|e| matches!(e, kernel::Event::Rejected { .. })), "{r:?}");
+                        compared += 1;
+                    }
+                }
+                k.tick(&still(limits), None);
+            }
+        }
+        println!("{compared} requests during homing compared with none");
+        assert!(compared > 1000, "{compared}");
     }
 }

@@ -107,7 +107,7 @@ impl<S: ModelScalar> Supervisor<S> {
         p.push(Property::<Self>::sometimes("soft E-stop latched", |_, s| s.k.state() == State::SoftEstop));
         // The full configuration's 2 mrad target is there for these (its
         // 20 urad motions land before the command timeout expires and never
-        // cruise: `--config full --no-far` fails them).
+        // cruise: `--config full --no-far --homing-restricted` fails them).
         if self.landing {
             p.extend([
                 Property::<Self>::sometimes("the command timeout soft-stopped a moving arm", |_, s| {
