@@ -260,6 +260,29 @@ fn check_row(id: &str, kani: &str, executed: &str, run: &Run) -> (Vec<Record>, V
                 }
             }
         }
+        // Each configuration a model-checked clause names backs each of
+        // its properties (a property of a transition backs a run only where
+        // its antecedent held on an explored transition).
+        let complete: Vec<&(Record, Vec<String>)> = run.model.iter().filter(|(m, _)| checked(m)).collect();
+        if claims_checked && !complete.is_empty() {
+            for clause in clauses(executed).iter().filter(|c| claim(c) == Source::ModelChecked) {
+                let configs = clause_configs(clause);
+                for (p, only) in properties_with_configs(clause) {
+                    for cfg in if only.is_empty() { &configs } else { &only } {
+                        let tag = format!(" {cfg} configuration");
+                        match complete.iter().find(|(m, _)| m.detail.contains(&tag)) {
+                            None => missing.push(format!(
+                                "{id}: claims every reachable state of the {cfg} configuration, but no such model run ran"
+                            )),
+                            Some((_, props)) if !props.contains(&p) => missing.push(format!(
+                                "{id}: claims \"{p}\" in the {cfg} configuration, but that run does not back it (not exercised there)"
+                            )),
+                            Some(_) => {}
+                        }
+                    }
+                }
+            }
+        }
         // A run of the other kind that checked a property of this
         // requirement must be claimed too.
         for (m, props) in &run.model {
@@ -292,6 +315,42 @@ fn unrecorded_kind(executed: &str) -> Option<&'static str> {
 /// The model properties a cell names: every `property "NAME"`.
 fn model_properties(cell: &str) -> Vec<String> {
     cell.split("property \"").skip(1).filter_map(|r| r.split('"').next()).map(str::to_string).collect()
+}
+
+/// The model's configurations, as a clause names them.
+const CONFIGS: [&str; 5] = ["full", "stream", "small", "tiny", "homing"];
+
+fn config_words(text: &str) -> Vec<String> {
+    text.split(|c: char| !c.is_ascii_alphanumeric()).filter(|w| CONFIGS.contains(w)).map(str::to_string).collect()
+}
+
+/// The configurations a model-checked clause claims every reachable state
+/// of: "every reachable state: `Kernel<Fx>` full, small and homing,
+/// `Kernel<f32>` tiny; ...".
+fn clause_configs(clause: &str) -> Vec<String> {
+    clause
+        .split_once("every reachable state:")
+        .map_or(Vec::new(), |(_, rest)| config_words(rest.split(';').next().unwrap_or("")))
+}
+
+/// Each `property "NAME"` of a clause, with the configurations it is
+/// restricted to when a parenthesis that starts with one follows it
+/// (`property "NAME" (full, small and tiny)`, or `(full and small: the
+/// reason)`, the list ending at the colon); empty: the clause's.
+fn properties_with_configs(clause: &str) -> Vec<(String, Vec<String>)> {
+    clause
+        .split("property \"")
+        .skip(1)
+        .filter_map(|r| {
+            let (name, after) = r.split_once('"')?;
+            let inside = after.strip_prefix(" (").and_then(|a| a.split_once(')')).map_or("", |(i, _)| i);
+            // The list ends at a colon: "(full and small: why not homing)".
+            let inside = inside.split(':').next().unwrap_or("");
+            let first = inside.split(|c: char| !c.is_ascii_alphanumeric()).find(|w| !w.is_empty());
+            let only = if first.is_some_and(|w| CONFIGS.contains(&w)) { config_words(inside) } else { Vec::new() };
+            Some((name.to_string(), only))
+        })
+        .collect()
 }
 
 /// The requirements a model property is tagged with: `SR-1/4/5: ...` ->
@@ -382,6 +441,37 @@ mod tests {
              model\tmodel-checked\t3000000\tholds\tsmall\tSR-4: fault tick output|SR-5: latch left\n",
             "SR-2\tSMT\t5\tproved\tsaturate f32\n",
         )
+    }
+
+    /// A model-checked clause claims each property in each configuration
+    /// it names: a configuration whose run did not exercise a property
+    /// (its antecedent never held there) is refused, unless the property
+    /// is restricted to the configurations that back it.
+    #[test]
+    fn a_configuration_that_does_not_back_a_property_is_refused() {
+        let r = Run::parse(
+            "",
+            "",
+            "model\tmodel-checked\t3000000\tholds\tsupervisor + homing, Kernel<Fx>, small configuration\tSR-8: armed|SR-8: after homing\n\
+             model\tmodel-checked\t500000\tholds\tsupervisor + homing, Kernel<Fx>, homing configuration\tSR-8: after homing\n",
+            "",
+        );
+        let cell = "model-checked (every reachable state: `Kernel<Fx>` small and homing; property \"SR-8: armed\"; property \"SR-8: after homing\")";
+        let (_, m, _) = check_row("SR-8", "", cell, &r);
+        assert!(m.iter().any(|s| s.contains("\"SR-8: armed\" in the homing configuration")), "{m:?}");
+        assert_eq!(m.len(), 1, "{m:?}");
+        let restricted = "model-checked (every reachable state: `Kernel<Fx>` small and homing; property \"SR-8: armed\" (small only: the homing configuration sends no motion); property \"SR-8: after homing\")";
+        let (_, m, _) = check_row("SR-8", "", restricted, &r);
+        assert!(m.is_empty(), "{m:?}");
+        let absent =
+            "model-checked (every reachable state: `Kernel<Fx>` small and tiny; property \"SR-8: after homing\")";
+        let (_, m, _) = check_row("SR-8", "", absent, &r);
+        assert!(m.iter().any(|s| s.contains("tiny configuration, but no such model run ran")), "{m:?}");
+        // A parenthesis that does not start with a configuration restricts nothing.
+        assert_eq!(
+            properties_with_configs("property \"SR-5: x\" (a kernel whose home is small fails it)"),
+            vec![("SR-5: x".to_string(), Vec::new())]
+        );
     }
 
     #[test]
